@@ -1,0 +1,140 @@
+"""The report's controllers (§6, MODEL.md §4), vectorised over n actuators.
+
+Each controller maps what a real controller reads (the measured position, the reference
+and its rate, its own time step) to a duty cycle in [0, 1]. They never see the simulator's
+hidden state. All share the report's low-pass filter on the measured position (§6.1) and
+bounded integral action (anti-windup).
+
+Choices where the report is ambiguous (each reproduces the character of Table 6.1 in
+simulation, see ``sma-gym evaluate``):
+
+* Integral gains (PID's Ki = 0.8, VSC4's lambda_I = 0.00025) are per 1 kHz sample: the
+  report's PID removes its steady-state error within seconds ("settling time is quite
+  slow", §6.1, Table 6.1), which with Ki = 0.8 per metre-second would take about 20
+  minutes; LabVIEW's discrete accumulator sums the error per sample. So the integral is
+  Ki * sum(e) = Ki * f_loop * integral(e dt), i.e. Ki = 800 /(m s) at 1 kHz.
+* Derivatives (PID's Kd = 10, VSC's lambda = 0.0125) act on de/dt in m/s: per-sample
+  differences would make them negligible, but the report's tuning trades overshoot against
+  them (§6.1, §6.4).
+* Boundary layers: K inside the layer is 1 / phi, so the duty is continuous at the layer's
+  edge (the report leaves K unstated). VSC3/VSC4's phi = 0.011 m is the report's value;
+  a layer wider than the 8 mm step means they act as a saturated linear law on the sliding
+  variable, which is what gives them no overshoot (§6.4).
+* Anti-windup: the integral is clamped (§6.1: "the integral action is bounded"). Plain
+  clamping, not conditional integration: the report's PID overshoots because its integral
+  winds up to the bound during the rise (Table 6.1), and conditional integration would
+  remove that character.
+* The position filter: first order, 50 Hz cut-off (the report gives no number; it passes
+  the 0.1 Hz - 5 Hz of the experiments and attenuates sensor noise).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+FILTER_CUTOFF_HZ = 50.0
+INTEGRAL_LIMIT = 1.0
+"""Anti-windup, part 1: the integral term may contribute at most the full duty range (a
+multiplexed actuator needs nearly all of it to hold a position at 1/n duty, §9)."""
+
+
+@dataclass(frozen=True)
+class ControllerSpec:
+    """Gains of one controller configuration (report §6)."""
+
+    name: str
+    law: str  # "pid", "switch", "boundary"
+    kp: float = 0.0
+    ki_per_sample: float = 0.0
+    kd: float = 0.0
+    phi: float = 0.0
+    lam: float = 0.0
+    lam_i_per_sample: float = 0.0
+    feedforward: bool = False
+    k_pos: float = 7.0
+    k_vel: float = 20.0
+
+    @property
+    def label(self) -> str:
+        return self.name + (" + FF" if self.feedforward else "")
+
+
+PID = ControllerSpec("PID", "pid", kp=1000.0, ki_per_sample=0.8, kd=10.0)
+VSC1 = ControllerSpec("VSC1", "switch")
+VSC2 = ControllerSpec("VSC2", "boundary", phi=0.001)
+VSC3 = ControllerSpec("VSC3", "boundary", phi=0.011, lam=0.0125)
+VSC4 = ControllerSpec("VSC4", "boundary", phi=0.011, lam=0.0125, lam_i_per_sample=0.00025)
+BASE_SPECS = (PID, VSC1, VSC2, VSC3, VSC4)
+
+
+def with_feedforward(spec: ControllerSpec) -> ControllerSpec:
+    from dataclasses import replace
+
+    return replace(spec, feedforward=True)
+
+
+ALL_SPECS = BASE_SPECS + tuple(with_feedforward(s) for s in BASE_SPECS)
+
+
+def spec_by_label(label: str) -> ControllerSpec:
+    for s in ALL_SPECS:
+        if s.label.lower().replace(" ", "") == label.lower().replace(" ", ""):
+            return s
+    raise ValueError(f"controller = {label!r}: expected one of {[s.label for s in ALL_SPECS]}")
+
+
+class Controller:
+    """A controller of ``spec`` for n actuators, stepping every ``dt`` seconds."""
+
+    def __init__(self, spec: ControllerSpec, n: int = 1, dt: float = 1e-3, filter_cutoff_hz: float = FILTER_CUTOFF_HZ):
+        if dt <= 0 or not math.isfinite(dt):
+            raise ValueError(f"dt = {dt!r}: expected a positive time step in seconds")
+        self.spec = spec
+        self.n = n
+        self.dt = dt
+        self._alpha = 1.0 - math.exp(-2.0 * math.pi * filter_cutoff_hz * dt) if filter_cutoff_hz > 0 else 1.0
+        self._filtered = np.zeros(n)
+        self._last_error = np.zeros(n)
+        self._integral = np.zeros(n)  # running sum of errors per sample [m]
+        self._started = np.zeros(n, dtype=bool)
+
+    def reset(self, mask: np.ndarray | None = None) -> None:
+        """Forget filter, derivative and integral state (all, or where ``mask``)."""
+        m = slice(None) if mask is None else np.asarray(mask, dtype=bool)
+        self._filtered[m] = 0.0
+        self._last_error[m] = 0.0
+        self._integral[m] = 0.0
+        self._started[m] = False
+
+    def __call__(self, position_m: np.ndarray, reference_m: np.ndarray, reference_rate_m_s: np.ndarray | None = None) -> np.ndarray:
+        """Duty (n,) for measured positions and references (shape (n,) or scalars)."""
+        x = np.broadcast_to(np.asarray(position_m, dtype=float), (self.n,))
+        r = np.broadcast_to(np.asarray(reference_m, dtype=float), (self.n,))
+        rate = np.zeros(self.n) if reference_rate_m_s is None else np.broadcast_to(np.asarray(reference_rate_m_s, dtype=float), (self.n,))
+        fresh = ~self._started
+        self._filtered = np.where(fresh, x, self._filtered + self._alpha * (x - self._filtered))
+        e = r - self._filtered
+        de = np.where(fresh, 0.0, (e - self._last_error) / self.dt)
+        self._last_error = e
+        self._started[:] = True
+        s = self.spec
+        ff = s.k_pos * r + s.k_vel * np.maximum(rate, 0.0) if s.feedforward else 0.0
+        if s.law == "pid":
+            self._integrate(e, INTEGRAL_LIMIT / s.ki_per_sample)
+            u = s.kp * e + s.ki_per_sample * self._integral + s.kd * de + ff
+        elif s.law == "switch":
+            u = (e > 0.0).astype(float) + ff
+        else:
+            sliding = e + s.lam * de
+            if s.lam_i_per_sample > 0.0:
+                self._integrate(e, INTEGRAL_LIMIT * s.phi / s.lam_i_per_sample)
+                sliding = sliding + s.lam_i_per_sample * self._integral
+            u = np.clip(sliding / s.phi, 0.0, 1.0) + ff
+        return np.clip(u, 0.0, 1.0)
+
+    def _integrate(self, e: np.ndarray, limit: float) -> None:
+        self._integral += e
+        np.clip(self._integral, -limit, limit, out=self._integral)

@@ -1,0 +1,434 @@
+"""The compiled simulator core: advances n actuators by whole control steps.
+
+One function, :func:`advance`, serves every user: a single env (n = 1, one step per call),
+the multiplexer (n actuators with phase-shifted PWM), a vector env of thousands, and the
+batched parameter sweeps of model fitting (many steps per call, outputs recorded). Each
+actuator has its own column of parameters, so actuators in one call may differ in every
+respect. It is compiled with numba: the per-actuator logic (hysteresis, root finding,
+PWM edges, friction sticking) branches too much for whole-array numpy to be fast, and an
+env step has to cost about as much as a Gymnasium classic-control step.
+
+Integration scheme (one sub-step of length h)
+---------------------------------------------
+1. Electrical energy of the sub-step from the PWM (averaged or resolved, see
+   ``electrical.pwm``) using the resistance at the start of the sub-step.
+2. Heat balance: exponential Euler for heating and convection (stable for any h).
+3. Mechanics and transformation: implicit (backward Euler), solved together
+   (``physics.mechanics.solve_step``), unconditionally stable; latent heat inside it.
+4. Mechanical work taken from the heat (energy is conserved to rounding in the thermal
+   bookkeeping), sensors and the end-of-travel cut updated.
+
+Sub-step length. Nothing here needs a small step for stability, so h is chosen for
+accuracy: at most ``ActuatorParams``-independent 1 ms and small enough that full power
+raises the temperature by at most 0.5 K per sub-step (about 1/70 of the transformation
+range): ``h_max = min(1 ms, 0.5 K * m c_p / P_max)``, computed once when parameters are
+packed. PWM-resolved mode additionally cuts sub-steps at every switching edge. The test
+suite checks that halving h changes the trajectories by a small, stated amount.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from sma_gym.core.layout import (
+    MAX_SPREAD_NODES,
+    P_A_F,
+    P_A_S,
+    P_ABBE,
+    P_ABBE_FORM,
+    P_ALPHA_TH,
+    P_AREA,
+    P_C_A,
+    P_C_M,
+    P_CONV_FORM,
+    P_CONV_POWER_SCALE,
+    P_D_A,
+    P_D_M,
+    P_DAMPING,
+    P_DUTY_MAX,
+    P_EOT,
+    P_EOT_RELEASE,
+    P_EPS0,
+    P_F_COULOMB,
+    P_F_PRE,
+    P_FRICTION_FORM,
+    P_H0,
+    P_H1,
+    P_H2,
+    P_H_MAX,
+    P_HEAT_CAP,
+    P_I_NOISE,
+    P_K_SPRING,
+    P_LAG_ORDER,
+    P_LATENT,
+    P_LATENT_COOL,
+    P_LENGTH,
+    P_M_F,
+    P_M_S,
+    P_MASS,
+    P_N_NODES,
+    P_NODE_OFFSET0,
+    P_NODE_WEIGHT0,
+    P_POS_NOISE,
+    P_POS_RESOLUTION,
+    P_PWM_PERIOD,
+    P_R_NOISE,
+    P_R_SERIES,
+    P_RESOLVED,
+    P_RHO_A,
+    P_RHO_M,
+    P_RISE_FORM,
+    P_SAG_FORM,
+    P_SAG_I_REF,
+    P_SIGMA0,
+    P_SURFACE,
+    P_T_AMB,
+    P_T_REF_R,
+    P_T_SETTLE,
+    P_TAU_FILTER,
+    P_TAU_LAG,
+    P_TAU_RISE,
+    P_TCR_A,
+    P_TCR_M,
+    P_V_NOISE,
+    P_V_SUPPLY,
+    S_DIRECTION,
+    S_DUTY_CMD,
+    S_DUTY_LATCHED,
+    S_E_CONVECTED,
+    S_E_DISSIPATED,
+    S_E_ELECTRIC,
+    S_E_LATENT,
+    S_EOT_CUT,
+    S_FILTER,
+    S_FORCE,
+    S_I_MEAS,
+    S_LAG1,
+    S_LAG2,
+    S_POS_MEAS,
+    S_POWER,
+    S_PWM_TAU,
+    S_R_MEAS,
+    S_R_TRUE,
+    S_SIGMA,
+    S_T,
+    S_TIME,
+    S_TRAVEL,
+    S_V,
+    S_V_MEAS,
+    S_W_MECHANICAL,
+    S_X,
+    S_XI,
+    S_XI_NODE0,
+)
+from sma_gym.electrical.pwm import on_current, pulse_integral
+from sma_gym.electrical.sensors import (
+    DIRECTION_THRESHOLD_M_S,
+    abbe_reading_offset,
+    first_order,
+    quantise,
+)
+from sma_gym.physics.mechanics import kinetic_friction, solve_step, static_friction
+from sma_gym.physics.resistance import wire_resistance
+from sma_gym.physics.thermal import convection_coefficient, exponential_euler
+
+MIN_SUBSTEP_S = 1e-9
+"""Slivers shorter than this (rounding at PWM edges) advance the clock without a step."""
+
+
+@njit(cache=True, inline="always")
+def _resistance(state, params, i, x, xi, t_c):
+    return wire_resistance(
+        x, xi, t_c, params[i, P_RHO_M], params[i, P_RHO_A], params[i, P_TCR_M], params[i, P_TCR_A],
+        params[i, P_T_REF_R], params[i, P_LENGTH], params[i, P_AREA],
+    )
+
+
+@njit(cache=True, inline="always")
+def _on_current(state, params, i):
+    return on_current(
+        params[i, P_V_SUPPLY], state[i, S_R_TRUE], params[i, P_R_SERIES], int(params[i, P_SAG_FORM]),
+        params[i, P_SAG_I_REF],
+    )
+
+
+@njit(cache=True, inline="always")
+def sensor_output(state, params, i):
+    """Current output of the position-sensor chain (before sampling, noise, quantisation)."""
+    if params[i, P_TAU_LAG] > 0.0:
+        if params[i, P_LAG_ORDER] >= 2.0:
+            return state[i, S_LAG2]
+        return state[i, S_LAG1]
+    return state[i, S_FILTER]
+
+
+@njit(cache=True, inline="always")
+def _substep(state, params, i, h, energy_j, offsets, weights, nodes0, nodes1, n_nodes):
+    x0 = state[i, S_X]
+    v0 = state[i, S_V]
+    t0 = state[i, S_T]
+    z0 = state[i, S_XI]
+    heat_cap = params[i, P_HEAT_CAP]
+    t_amb = params[i, P_T_AMB]
+    area = params[i, P_AREA]
+    length = params[i, P_LENGTH]
+
+    # Heat in and convection out (exponential Euler, coefficient frozen at T0).
+    h_conv = convection_coefficient(
+        t0, params[i, P_H0], params[i, P_H1], params[i, P_H2], t_amb, int(params[i, P_CONV_FORM]),
+        params[i, P_CONV_POWER_SCALE],
+    )
+    t_pred = exponential_euler(t0, energy_j / h, h_conv * params[i, P_SURFACE], heat_cap, t_amb, h)
+    e_conv = energy_j - heat_cap * (t_pred - t0)
+
+    # Backward-Euler mechanics: k_ext x1 = b_ext + A sigma(x1, z).
+    mass = params[i, P_MASS]
+    damping = params[i, P_DAMPING]
+    k_spring = params[i, P_K_SPRING]
+    f_pre = params[i, P_F_PRE]
+    k_ext = mass / (h * h) + damping / h + k_spring
+    b_ext = mass * (x0 + h * v0) / (h * h) + damping * x0 / h - f_pre
+
+    d_a = params[i, P_D_A]
+    d_m = params[i, P_D_M]
+    eps0 = params[i, P_EPS0]
+    alpha = params[i, P_ALPHA_TH]
+    sigma0 = params[i, P_SIGMA0]
+    c_a = params[i, P_C_A]
+    c_m = params[i, P_C_M]
+    a_s = params[i, P_A_S]
+    a_f = params[i, P_A_F]
+    m_s = params[i, P_M_S]
+    m_f = params[i, P_M_F]
+    lat_h = params[i, P_LATENT]
+    lat_c = params[i, P_LATENT_COOL]
+    for k in range(n_nodes):
+        nodes0[k] = state[i, S_XI_NODE0 + k]
+
+    # Friction (coulomb_friction effect, set-valued at rest): try the stuck step first; if
+    # holding needs more than static friction, slide with the kinetic force against the
+    # motion; if that would reverse the motion within the step, the mass sticks after all.
+    # Without friction a single free step. (One solve_step call site, inlined once.)
+    f_c = params[i, P_F_COULOMB]
+    form = int(params[i, P_FRICTION_FORM])
+    stick = f_c > 0.0
+    friction = 0.0
+    direction = 0.0
+    z = z0
+    x1 = x0
+    s1 = 0.0
+    t1 = t_pred
+    for attempt in range(3):
+        z, x1, s1, t1 = solve_step(
+            stick, x0, t_pred, z0, k_ext, b_ext - friction, area, length, d_a, d_m, eps0, alpha, t_amb, sigma0,
+            c_a, c_m, a_s, a_f, m_s, m_f, lat_h, lat_c, n_nodes, offsets, weights, nodes0, nodes1,
+        )
+        if f_c <= 0.0:
+            break
+        if attempt == 0:
+            needed = area * s1 - k_spring * x0 - f_pre + mass * v0 / h
+            if abs(needed) <= static_friction(f_c, form):
+                break
+            direction = 1.0 if needed > 0.0 else -1.0
+            friction = direction * kinetic_friction(f_c, v0, form)
+            stick = False
+        elif attempt == 1:
+            if (x1 - x0) * direction >= 0.0:
+                break
+            friction = 0.0
+            stick = True
+        else:
+            break
+
+    dx = x1 - x0
+    v1 = dx / h
+    work = area * s1 * dx
+    # The wire's mechanical work comes out of its heat: keeps the energy balance closed.
+    t1 -= work / heat_cap
+
+    state[i, S_X] = x1
+    state[i, S_V] = v1
+    state[i, S_T] = t1
+    state[i, S_SIGMA] = s1
+    state[i, S_XI] = z
+    for k in range(n_nodes):
+        state[i, S_XI_NODE0 + k] = nodes1[k]
+    state[i, S_E_ELECTRIC] += energy_j
+    state[i, S_E_CONVECTED] += e_conv
+    state[i, S_W_MECHANICAL] += work
+    state[i, S_E_DISSIPATED] += damping * v1 * v1 * h + friction * dx
+    state[i, S_E_LATENT] += heat_cap * (lat_h if z < z0 else lat_c) * (z - z0)
+    state[i, S_FORCE] = k_spring * x1 + f_pre
+    state[i, S_R_TRUE] = _resistance(state, params, i, x1, z, t1)
+
+    # Sensor chain: Abbe offset -> low-pass filter -> extra lag.
+    if v1 > DIRECTION_THRESHOLD_M_S:
+        state[i, S_DIRECTION] = 1.0
+    elif v1 < -DIRECTION_THRESHOLD_M_S:
+        state[i, S_DIRECTION] = -1.0
+    state[i, S_TRAVEL] += abs(dx)
+    raw = x1 + abbe_reading_offset(params[i, P_ABBE], state[i, S_DIRECTION], state[i, S_TRAVEL], int(params[i, P_ABBE_FORM]))
+    filtered = first_order(state[i, S_FILTER], raw, h, params[i, P_TAU_FILTER])
+    state[i, S_FILTER] = filtered
+    tau_lag = params[i, P_TAU_LAG]
+    if tau_lag > 0.0:
+        if params[i, P_LAG_ORDER] >= 2.0:
+            stage1 = first_order(state[i, S_LAG1], filtered, h, 0.5 * tau_lag)
+            state[i, S_LAG1] = stage1
+            state[i, S_LAG2] = first_order(state[i, S_LAG2], stage1, h, 0.5 * tau_lag)
+        else:
+            state[i, S_LAG1] = first_order(state[i, S_LAG1], filtered, h, tau_lag)
+
+    # Driver's end-of-travel cut (a limit switch on the true position, with hysteresis).
+    if x1 >= params[i, P_EOT]:
+        state[i, S_EOT_CUT] = 1.0
+    elif state[i, S_EOT_CUT] > 0.5 and x1 < params[i, P_EOT] - params[i, P_EOT_RELEASE]:
+        state[i, S_EOT_CUT] = 0.0
+
+
+@njit(cache=True)
+def _take_readings(state, params, i, on_time, t_settle, n_pos, n_r, n_i, n_v):
+    """Sample position (always) and V, I, R (only if this pulse lasts past the settling)."""
+    value = sensor_output(state, params, i) + params[i, P_POS_NOISE] * n_pos
+    state[i, S_POS_MEAS] = quantise(value, params[i, P_POS_RESOLUTION])
+    if on_time > 0.0 and on_time >= t_settle and state[i, S_EOT_CUT] < 0.5:
+        current = _on_current(state, params, i)
+        current_meas = current + params[i, P_I_NOISE] * n_i
+        voltage_meas = current * state[i, S_R_TRUE] + params[i, P_V_NOISE] * n_v
+        state[i, S_I_MEAS] = current_meas
+        state[i, S_V_MEAS] = voltage_meas
+        state[i, S_R_MEAS] = voltage_meas / current_meas + params[i, P_R_NOISE] * n_r
+    else:
+        state[i, S_I_MEAS] = np.nan
+        state[i, S_V_MEAS] = np.nan
+        state[i, S_R_MEAS] = np.nan
+
+
+@njit(cache=True, inline="always")
+def _control_step(state, params, i, duty_cmd, dt, n_pos, n_r, n_i, n_v, offsets, weights, nodes0, nodes1, n_nodes):
+    duty = duty_cmd
+    if duty < 0.0:
+        duty = 0.0
+    duty_max = params[i, P_DUTY_MAX]
+    if duty > duty_max:
+        duty = duty_max
+    state[i, S_DUTY_CMD] = duty
+    e_start = state[i, S_E_ELECTRIC]
+    period = params[i, P_PWM_PERIOD]
+    tau_rise = params[i, P_TAU_RISE]
+    rise_form = int(params[i, P_RISE_FORM])
+    t_settle = params[i, P_T_SETTLE]
+    h_max = params[i, P_H_MAX]
+
+    resolved = params[i, P_RESOLVED] != 0.0
+    # PWM-averaged: equal sub-steps, each with the mean energy of the pulses it spans.
+    n_sub = int(math.ceil(dt / h_max - 1e-9))
+    if n_sub < 1:
+        n_sub = 1
+    h_avg = dt / n_sub
+    mean_fraction = pulse_integral(0.0, duty * period, tau_rise, rise_form) / period
+    # PWM-resolved: sub-steps cut at every switching edge.
+    edge_tol = 1e-12 * period
+    remaining = dt
+    k_sub = 0
+    while True:
+        if resolved:
+            if remaining <= MIN_SUBSTEP_S:
+                break
+            tau = state[i, S_PWM_TAU]
+            if tau >= period - edge_tol:
+                # A new PWM period starts: sample the sensors at the end of the old one and
+                # latch the duty commanded now (the FPGA computes the ticks per period).
+                tau -= period
+                if tau < 0.0:
+                    tau = 0.0
+                state[i, S_PWM_TAU] = tau
+                state[i, S_DUTY_LATCHED] = duty
+                _take_readings(state, params, i, duty * period, t_settle, n_pos, n_r, n_i, n_v)
+            on_time = state[i, S_DUTY_LATCHED] * period
+            switched_on = tau < on_time - edge_tol and state[i, S_EOT_CUT] < 0.5
+            edge = on_time if switched_on else period
+            seg = edge - tau
+            if seg > remaining:
+                seg = remaining
+            if seg > h_max:
+                seg = h_max
+            if seg < MIN_SUBSTEP_S:
+                # Rounding sliver just before an edge: move the clock past it, no integration.
+                state[i, S_PWM_TAU] = edge
+                remaining -= edge - tau
+                continue
+            energy = 0.0
+            if switched_on:
+                current = _on_current(state, params, i)
+                energy = current * current * state[i, S_R_TRUE] * pulse_integral(tau, tau + seg, tau_rise, rise_form)
+            state[i, S_PWM_TAU] = tau + seg
+        else:
+            if k_sub >= n_sub:
+                break
+            seg = h_avg
+            energy = 0.0
+            if state[i, S_EOT_CUT] < 0.5 and mean_fraction > 0.0:
+                current = _on_current(state, params, i)
+                energy = current * current * state[i, S_R_TRUE] * mean_fraction * seg
+        _substep(state, params, i, seg, energy, offsets, weights, nodes0, nodes1, n_nodes)
+        remaining -= seg
+        k_sub += 1
+    if resolved:
+        if remaining > 0.0:
+            state[i, S_PWM_TAU] += remaining  # keep the PWM clock exact
+    else:
+        _take_readings(state, params, i, duty * period, t_settle, n_pos, n_r, n_i, n_v)
+
+    state[i, S_POWER] = (state[i, S_E_ELECTRIC] - e_start) / dt
+    state[i, S_TIME] += dt
+
+
+@njit(cache=True)
+def advance(state, params, duty, dt, noise, record, record_rows):
+    """Advance every actuator (column) by ``duty.shape[0]`` control steps of ``dt`` seconds.
+
+    Parameters
+    ----------
+    state : (n, N_STATE) float64, updated in place (one row per actuator).
+    params : (n, N_PARAMS) float64.
+    duty : (n_steps, n) float64, commanded duty per step (clipped to [0, DUTY_MAX]).
+    noise : (n_steps, 4, n) standard normals for the position, resistance, current and
+        voltage readings, or an array with n_steps = 0 for noise-free sensors.
+    record : (n_steps, len(record_rows), n) filled with the state rows after each step, or
+        an array with n_steps = 0 to record nothing.
+    record_rows : int64 array of state rows to record.
+    """
+    n = state.shape[0]
+    n_steps = duty.shape[0]
+    have_noise = noise.shape[0] > 0
+    have_record = record.shape[0] > 0
+    n_rec = record_rows.shape[0]
+    offsets = np.empty(MAX_SPREAD_NODES)
+    weights = np.empty(MAX_SPREAD_NODES)
+    nodes0 = np.empty(MAX_SPREAD_NODES)
+    nodes1 = np.empty(MAX_SPREAD_NODES)
+    # Each actuator's state and parameters are contiguous (actuator-major), so the loop streams
+    # through memory once per step however many actuators there are.
+    for s in range(n_steps):
+        for i in range(n):
+            n_nodes = int(params[i, P_N_NODES])
+            for k in range(n_nodes):
+                offsets[k] = params[i, P_NODE_OFFSET0 + k]
+                weights[k] = params[i, P_NODE_WEIGHT0 + k]
+            n_pos = 0.0
+            n_r = 0.0
+            n_i = 0.0
+            n_v = 0.0
+            if have_noise:
+                n_pos = noise[s, 0, i]
+                n_r = noise[s, 1, i]
+                n_i = noise[s, 2, i]
+                n_v = noise[s, 3, i]
+            _control_step(state, params, i, duty[s, i], dt, n_pos, n_r, n_i, n_v, offsets, weights, nodes0, nodes1, n_nodes)
+            if have_record:
+                for j in range(n_rec):
+                    record[s, j, i] = state[i, record_rows[j]]

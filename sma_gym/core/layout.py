@@ -1,0 +1,157 @@
+"""Row layout of the simulator core's state and parameter matrices.
+
+The core works on two float64 matrices with one column per actuator:
+``state[S_*, i]`` and ``params[P_*, i]``. Keeping everything in two contiguous arrays
+makes a call into the compiled kernel cheap (two arrays to unbox instead of forty) and
+lets every actuator carry its own parameters: one env, a multiplexed bank, a vector env of
+thousands with randomised conditions, or a batch of candidate models in a fit all use the
+same code. The integer constants below are compile-time constants for numba.
+"""
+
+from __future__ import annotations
+
+MAX_SPREAD_NODES = 5
+
+# --------------------------------------------------------------------------------------
+# State rows
+# --------------------------------------------------------------------------------------
+S_X = 0  # position (contraction) x [m]
+S_V = 1  # velocity x' [m/s]
+S_T = 2  # wire temperature T [degC]
+S_SIGMA = 3  # wire stress sigma [Pa]
+S_XI = 4  # martensite fraction xi (mean over spread nodes) [-]
+S_XI_NODE0 = 5  # martensite fraction of each spread sub-element [-]
+S_FILTER = S_XI_NODE0 + MAX_SPREAD_NODES  # position-sensor low-pass filter output [m]
+S_LAG1 = S_FILTER + 1  # sensor_lag effect, first stage [m]
+S_LAG2 = S_LAG1 + 1  # sensor_lag effect, second stage (second-order form) [m]
+S_DIRECTION = S_LAG2 + 1  # last direction of motion, +1 contracting / -1 extending
+S_TRAVEL = S_DIRECTION + 1  # accumulated travel [m] (abbe_offset 'wear' form)
+S_EOT_CUT = S_TRAVEL + 1  # 1 while the driver's end-of-travel cut is active
+S_PWM_TAU = S_EOT_CUT + 1  # time since the start of the current PWM period [s] (resolved mode)
+S_DUTY_CMD = S_PWM_TAU + 1  # duty commanded for the last control step (after clipping)
+S_DUTY_LATCHED = S_DUTY_CMD + 1  # duty of the current PWM period (resolved mode)
+S_POS_MEAS = S_DUTY_LATCHED + 1  # last position reading [m]
+S_R_MEAS = S_POS_MEAS + 1  # last resistance reading V/I [ohm], NaN if none could be taken
+S_I_MEAS = S_R_MEAS + 1  # last current reading (on-time) [A], NaN if none
+S_V_MEAS = S_I_MEAS + 1  # last wire-voltage reading (on-time) [V], NaN if none
+S_R_TRUE = S_V_MEAS + 1  # wire resistance now [ohm]
+S_POWER = S_R_TRUE + 1  # mean electrical power into the wire over the last control step [W]
+S_E_ELECTRIC = S_POWER + 1  # electrical energy into the wire since reset [J]
+S_E_CONVECTED = S_E_ELECTRIC + 1  # heat lost to the surroundings since reset [J]
+S_W_MECHANICAL = S_E_CONVECTED + 1  # work done by the wire on the mechanism since reset [J]
+S_E_DISSIPATED = S_W_MECHANICAL + 1  # energy dissipated by damping and friction since reset [J]
+S_FORCE = S_E_DISSIPATED + 1  # bias-spring force k x + F_pre [N]
+S_TIME = S_FORCE + 1  # simulated time since reset [s]
+S_T_RESET = S_TIME + 1  # temperature at the last reset [degC] (energy balance)
+S_E_LATENT = S_T_RESET + 1  # latent heat released into the wire since reset [J]
+N_STATE = S_E_LATENT + 1
+
+STATE_NAMES = {
+    S_X: "position_m",
+    S_V: "velocity_m_s",
+    S_T: "temperature_c",
+    S_SIGMA: "stress_pa",
+    S_XI: "martensite_fraction",
+    S_FILTER: "position_filtered_m",
+    S_POS_MEAS: "position_measured_m",
+    S_R_MEAS: "resistance_measured_ohm",
+    S_I_MEAS: "current_measured_a",
+    S_V_MEAS: "voltage_measured_v",
+    S_R_TRUE: "resistance_ohm",
+    S_POWER: "power_w",
+    S_E_ELECTRIC: "electrical_energy_j",
+    S_E_CONVECTED: "convected_heat_j",
+    S_W_MECHANICAL: "mechanical_work_j",
+    S_E_DISSIPATED: "dissipated_energy_j",
+    S_FORCE: "spring_force_n",
+    S_TIME: "time_s",
+    S_DUTY_CMD: "duty",
+    S_EOT_CUT: "end_of_travel_cut",
+    S_E_LATENT: "latent_heat_released_j",
+}
+STATE_ROWS = {name: row for row, name in STATE_NAMES.items()}
+
+# --------------------------------------------------------------------------------------
+# Parameter rows (all SI; derived quantities are precomputed at packing time)
+# --------------------------------------------------------------------------------------
+# wire geometry and thermal mass
+P_AREA = 0  # A [m^2]
+P_LENGTH = 1  # l0 [m]
+P_HEAT_CAP = 2  # m c_p [J/K]
+P_SPECIFIC_HEAT = 3  # c_p [J/(kg K)]
+P_SURFACE = 4  # A_c [m^2]
+# convection, already scaled for the diameter and by convection_change
+P_H0 = 5  # [W/(m^2 K)]
+P_H1 = 6  # [W/(m^2 K^2)] (convection_change)
+P_H2 = 7  # [W/(m^2 K^3)]
+P_CONV_FORM = 8  # 0: h0 + h1 dT + h2 T^2; 1: 'power' form (synthetic data only)
+P_CONV_POWER_SCALE = 9  # multiplier of the power form
+P_T_AMB = 10  # [degC]
+# elasticity and transformation
+P_D_A = 11  # [Pa]
+P_D_M = 12  # [Pa]
+P_EPS0 = 13  # [-]
+P_ALPHA_TH = 14  # thermal expansion [1/K]
+P_C_A = 15  # [Pa/K]
+P_C_M = 16  # [Pa/K]
+P_A_S = 17  # [degC]
+P_A_F = 18  # [degC]
+P_M_S = 19  # [degC]
+P_M_F = 20  # [degC]
+P_LATENT = 21  # latent heat per unit xi while heating (M->A), Delta_H / c_p [K]
+P_LATENT_COOL = 22  # the same while cooling (A->M) [K]
+P_N_NODES = 23  # number of spread sub-elements (1 = transformation_spread off)
+P_NODE_OFFSET0 = 24  # temperature offsets of the sub-elements [K]
+P_NODE_OFFSET1 = 25
+P_NODE_OFFSET2 = 26
+P_NODE_OFFSET3 = 27
+P_NODE_OFFSET4 = 28
+P_NODE_WEIGHT0 = 29  # weights of the sub-elements [-]
+P_NODE_WEIGHT1 = 30
+P_NODE_WEIGHT2 = 31
+P_NODE_WEIGHT3 = 32
+P_NODE_WEIGHT4 = 33
+# resistance
+P_RHO_M = 34  # [ohm m]
+P_RHO_A = 35  # [ohm m]
+P_TCR_M = 36  # [1/K]
+P_TCR_A = 37  # [1/K]
+P_T_REF_R = 38  # [degC]
+# mechanism
+P_MASS = 39  # [kg]
+P_DAMPING = 40  # [N s/m]
+P_K_SPRING = 41  # [N/m]
+P_F_PRE = 42  # [N]
+P_SIGMA0 = 43  # F_pre / A [Pa]
+P_F_COULOMB = 44  # coulomb_friction [N]
+P_FRICTION_FORM = 45  # 0 Coulomb, 1 Stribeck
+# driver and supply
+P_V_SUPPLY = 46  # [V]
+P_R_SERIES = 47  # supply_sag [ohm]
+P_SAG_FORM = 48  # 0 resistor, 1 quadratic
+P_SAG_I_REF = 49  # reference current of the quadratic form [A]
+P_PWM_PERIOD = 50  # [s]
+P_PWM_PHASE = 51  # start of this actuator's period, as a fraction of the period (multiplexer)
+P_DUTY_MAX = 52  # largest duty this actuator may get (1/n when multiplexed)
+P_RESOLVED = 53  # 1 = PWM-resolved, 0 = PWM-averaged
+P_T_SETTLE = 54  # measurement settling after switch-on [s]
+P_TAU_RISE = 55  # pulse_settling time constant [s]
+P_RISE_FORM = 56  # 0 exponential rise, 1 pure delay
+P_EOT = 57  # end-of-travel cut position [m] (inf = none)
+P_EOT_RELEASE = 58  # [m]
+# sensors
+P_TAU_FILTER = 59  # position filter time constant [s] (0 = none)
+P_TAU_LAG = 60  # sensor_lag [s]
+P_LAG_ORDER = 61  # 1 or 2
+P_ABBE = 62  # abbe_offset [m]
+P_ABBE_FORM = 63  # 0 step, 1 wear
+P_POS_NOISE = 64  # [m]
+P_POS_RESOLUTION = 65  # [m]
+P_R_NOISE = 66  # [ohm]
+P_I_NOISE = 67  # [A]
+P_V_NOISE = 68  # [V]
+# integrator
+P_H_MAX = 69  # largest integration sub-step [s]
+N_PARAMS = 70
+
+PARAM_ROWS = {name[2:].lower(): row for name, row in list(globals().items()) if name.startswith("P_")}

@@ -1,0 +1,12 @@
+"""Measured data: the file format and its loader (see :mod:`sma_gym.data.measured`)."""
+
+from sma_gym.data.measured import (
+    MeasuredDataError,
+    MeasuredTrace,
+    find_real_data_dir,
+    load_trace,
+    load_traces,
+    write_trace,
+)
+
+__all__ = ["MeasuredDataError", "MeasuredTrace", "find_real_data_dir", "load_trace", "load_traces", "write_trace"]

@@ -1,0 +1,329 @@
+"""Measured traces: the file format, loading and validation.
+
+Format
+------
+A CSV file with a header row, SI units, one row per sample:
+
+============== ======== ===========================================================
+column         unit     meaning
+============== ======== ===========================================================
+t              s        time, strictly increasing (required)
+duty           0..1     commanded PWM duty cycle (required)
+position       m        measured contraction, positive = wire contracted (required)
+resistance     ohm      V/I reading; empty where it could not be measured (optional)
+current        A        current during the on-time (optional, may be empty)
+supply_voltage V        supply voltage (optional)
+force          N        bias-spring force (optional)
+============== ======== ===========================================================
+
+Conditions that are constant over the file go into an optional JSON sidecar next to it,
+named ``<file>.json`` (e.g. ``step01.csv.json``; ``step01.json`` is accepted too)::
+
+    {"supply_voltage_v": 24.0, "wire_diameter_m": 0.0005, "pwm_frequency_hz": 1000,
+     "ambient_temperature_c": 20.0, "model": "bench-0.5mm-ht", "notes": "..."}
+
+Loading checks everything and reports *every* problem with file, row and column (missing
+columns, non-monotonic time, NaN where not allowed, duty outside [0, 1], unit slips such
+as a position in millimetres or time in milliseconds). Files are only read, never written.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+REQUIRED = ("t", "duty", "position")
+OPTIONAL = ("resistance", "current", "supply_voltage", "force")
+KNOWN_COLUMNS = REQUIRED + OPTIONAL
+SIDECAR_KEYS = {
+    "supply_voltage_v": (0.0, 60.0),
+    "wire_diameter_m": (1e-5, 5e-3),
+    "pwm_frequency_hz": (1.0, 1e5),
+    "ambient_temperature_c": (-60.0, 200.0),
+}
+SIDECAR_TEXT_KEYS = ("model", "notes", "source")
+
+#: Plausibility bounds that catch unit slips (a Flexinol actuator's stroke is centimetres).
+MAX_ABS_POSITION_M = 0.1
+MAX_RESISTANCE_OHM = 1000.0
+MAX_CURRENT_A = 50.0
+MAX_FORCE_N = 1000.0
+
+
+class MeasuredDataError(ValueError):
+    """Raised with every problem found, one per line ("file:row:column: message")."""
+
+    def __init__(self, problems: Sequence[str]):
+        self.problems = list(problems)
+        super().__init__("\n".join(self.problems))
+
+
+@dataclass(frozen=True)
+class MeasuredTrace:
+    """One measured run, in SI units."""
+
+    path: str
+    t: np.ndarray
+    duty: np.ndarray
+    position: np.ndarray
+    resistance: np.ndarray | None = None
+    current: np.ndarray | None = None
+    supply_voltage: np.ndarray | None = None
+    force: np.ndarray | None = None
+    conditions: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def name(self) -> str:
+        return Path(self.path).name
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+    @property
+    def sample_period_s(self) -> float:
+        return float(np.median(np.diff(self.t)))
+
+    def outputs(self) -> dict[str, np.ndarray]:
+        """Measured outputs the model can be compared on (position, resistance if any)."""
+        out = {"position": self.position}
+        if self.resistance is not None and np.isfinite(self.resistance).any():
+            out["resistance"] = self.resistance
+        return out
+
+    def duty_at_control_steps(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """The duty as a zero-order hold sampled at control steps of ``dt`` from t[0].
+
+        Returns (times of the step ends, duty per step).
+        """
+        n = int(math.floor((self.t[-1] - self.t[0]) / dt + 1e-9))
+        ends = self.t[0] + dt * np.arange(1, n + 1)
+        starts = ends - dt
+        idx = np.searchsorted(self.t, starts + 1e-12, side="right") - 1
+        return ends, self.duty[np.clip(idx, 0, len(self.duty) - 1)]
+
+    def slice(self, start_s: float, stop_s: float) -> "MeasuredTrace":
+        keep = (self.t >= start_s) & (self.t <= stop_s)
+        def part(a: np.ndarray | None) -> np.ndarray | None:
+            return None if a is None else a[keep]
+        return MeasuredTrace(
+            path=f"{self.path}[{start_s:g}:{stop_s:g}s]",
+            t=self.t[keep],
+            duty=self.duty[keep],
+            position=self.position[keep],
+            resistance=part(self.resistance),
+            current=part(self.current),
+            supply_voltage=part(self.supply_voltage),
+            force=part(self.force),
+            conditions=dict(self.conditions),
+        )
+
+
+def sidecar_path(csv_path: Path) -> Path | None:
+    for candidate in (csv_path.with_name(csv_path.name + ".json"), csv_path.with_suffix(".json")):
+        if candidate.exists() and candidate != csv_path:
+            return candidate
+    return None
+
+
+def _parse_float(text: str) -> float:
+    text = text.strip()
+    if text == "" or text.lower() in ("nan", "na", "null", "none"):
+        return math.nan
+    return float(text)
+
+
+def load_trace(path: str | Path) -> MeasuredTrace:
+    """Load and validate one CSV file (and its sidecar). Raises :class:`MeasuredDataError`."""
+    p = Path(path)
+    where = str(p)
+    if not p.exists():
+        raise MeasuredDataError([f"{where}: file does not exist"])
+    if p.is_dir():
+        raise MeasuredDataError([f"{where}: is a directory, expected a CSV file"])
+    problems: list[str] = []
+    try:
+        with p.open(newline="") as handle:
+            rows = list(csv.reader(handle))
+    except UnicodeDecodeError:
+        raise MeasuredDataError([f"{where}: not a text CSV file"]) from None
+    if not rows:
+        raise MeasuredDataError([f"{where}: empty file, expected a header row {','.join(REQUIRED)}"])
+    header = [h.strip() for h in rows[0]]
+    for name in REQUIRED:
+        if name not in header:
+            problems.append(f"{where}:1:{name}: missing required column (header has {header})")
+    for name in header:
+        if name not in KNOWN_COLUMNS:
+            problems.append(f"{where}:1:{name}: unknown column; expected only {', '.join(KNOWN_COLUMNS)}")
+    if len(set(header)) != len(header):
+        problems.append(f"{where}:1: duplicate column names in header {header}")
+    if problems:
+        raise MeasuredDataError(problems)
+    data_rows = rows[1:]
+    if len(data_rows) < 2:
+        raise MeasuredDataError([f"{where}: {len(data_rows)} data row(s), expected at least 2"])
+    columns: dict[str, np.ndarray] = {name: np.full(len(data_rows), math.nan) for name in header}
+    for i, row in enumerate(data_rows):
+        line = i + 2
+        if len(row) != len(header):
+            problems.append(f"{where}:{line}: {len(row)} fields, expected {len(header)}")
+            continue
+        for name, text in zip(header, row):
+            try:
+                columns[name][i] = _parse_float(text)
+            except ValueError:
+                problems.append(f"{where}:{line}:{name}: {text!r} is not a number")
+    for name in REQUIRED:
+        bad = np.flatnonzero(~np.isfinite(columns[name]))
+        for i in bad[:20]:
+            problems.append(f"{where}:{i + 2}:{name}: missing or non-finite value (required)")
+        if bad.size > 20:
+            problems.append(f"{where}:{name}: ... {bad.size - 20} more rows with missing values")
+    for name in OPTIONAL:
+        if name in columns:
+            bad = np.flatnonzero(np.isinf(columns[name]))
+            for i in bad[:20]:
+                problems.append(f"{where}:{i + 2}:{name}: infinite value")
+
+    t = columns["t"]
+    dt = np.diff(t)
+    nonmono = np.flatnonzero(~(dt > 0) & np.isfinite(dt))
+    for i in nonmono[:20]:
+        problems.append(
+            f"{where}:{i + 3}:t: time {float(t[i + 1]):g} s does not increase (previous row {float(t[i]):g} s); expected strictly increasing"
+        )
+    if nonmono.size > 20:
+        problems.append(f"{where}:t: ... {nonmono.size - 20} more non-increasing times")
+    finite_dt = dt[np.isfinite(dt) & (dt > 0)]
+    if finite_dt.size and np.median(finite_dt) >= 0.5:
+        problems.append(
+            f"{where}:t: median sample interval {np.median(finite_dt):g} s; expected seconds at >= 2 Hz "
+            "(is the time in milliseconds?)"
+        )
+
+    duty = columns["duty"]
+    out_of_range = np.flatnonzero(np.isfinite(duty) & ((duty < 0.0) | (duty > 1.0)))
+    for i in out_of_range[:20]:
+        hint = " (a percentage?)" if duty[i] > 1.0 and duty[i] <= 100.0 else ""
+        problems.append(f"{where}:{i + 2}:duty: {float(duty[i]):g} outside [0, 1]{hint}")
+    if out_of_range.size > 20:
+        problems.append(f"{where}:duty: ... {out_of_range.size - 20} more values outside [0, 1]")
+
+    position = columns["position"]
+    big = np.flatnonzero(np.isfinite(position) & (np.abs(position) > MAX_ABS_POSITION_M))
+    if big.size:
+        i = big[0]
+        problems.append(
+            f"{where}:{i + 2}:position: {float(position[i]):g} m ({big.size} rows beyond +-{MAX_ABS_POSITION_M} m); "
+            "expected metres (is the position in millimetres?)"
+        )
+    for name, limit, unit in (
+        ("resistance", MAX_RESISTANCE_OHM, "ohm"),
+        ("current", MAX_CURRENT_A, "A"),
+        ("force", MAX_FORCE_N, "N"),
+        ("supply_voltage", 100.0, "V"),
+    ):
+        if name in columns:
+            v = columns[name]
+            bad = np.flatnonzero(np.isfinite(v) & ((v < 0.0) | (v > limit)))
+            if bad.size:
+                i = bad[0]
+                problems.append(
+                    f"{where}:{i + 2}:{name}: {float(v[i]):g} {unit} ({bad.size} rows outside [0, {limit:g}] {unit}); "
+                    f"expected {unit}"
+                )
+
+    conditions: dict[str, Any] = {}
+    side = sidecar_path(p)
+    if side is not None:
+        try:
+            raw = json.loads(side.read_text())
+        except json.JSONDecodeError as err:
+            problems.append(f"{side}: not valid JSON: {err}")
+            raw = {}
+        if not isinstance(raw, dict):
+            problems.append(f"{side}: expected a JSON object")
+            raw = {}
+        for key, value in raw.items():
+            if key in SIDECAR_KEYS:
+                lo, hi = SIDECAR_KEYS[key]
+                if isinstance(value, bool) or not isinstance(value, (int, float)) or not (lo <= float(value) <= hi):
+                    problems.append(f"{side}:{key}: {value!r}: expected a number in [{lo:g}, {hi:g}]")
+                else:
+                    conditions[key] = float(value)
+            elif key in SIDECAR_TEXT_KEYS:
+                conditions[key] = str(value)
+            else:
+                problems.append(
+                    f"{side}:{key}: unknown key; expected {', '.join(list(SIDECAR_KEYS) + list(SIDECAR_TEXT_KEYS))}"
+                )
+    if problems:
+        raise MeasuredDataError(problems)
+    return MeasuredTrace(
+        path=str(p),
+        t=t,
+        duty=duty,
+        position=position,
+        resistance=columns.get("resistance"),
+        current=columns.get("current"),
+        supply_voltage=columns.get("supply_voltage"),
+        force=columns.get("force"),
+        conditions=conditions,
+    )
+
+
+def load_traces(paths: Sequence[str | Path]) -> list[MeasuredTrace]:
+    """Load several files, collecting the problems of all of them before raising."""
+    traces = []
+    problems: list[str] = []
+    for path in paths:
+        try:
+            traces.append(load_trace(path))
+        except MeasuredDataError as err:
+            problems.extend(err.problems)
+    if problems:
+        raise MeasuredDataError(problems)
+    return traces
+
+
+def write_trace(path: str | Path, trace: MeasuredTrace, *, overwrite: bool = False) -> Path:
+    """Write a trace in the measured format (and its sidecar if it has conditions)."""
+    p = Path(path)
+    if p.exists() and not overwrite:
+        raise FileExistsError(f"{p} exists; refusing to overwrite it")
+    p.parent.mkdir(parents=True, exist_ok=True)
+    cols = ["t", "duty", "position"]
+    arrays = [trace.t, trace.duty, trace.position]
+    for name in OPTIONAL:
+        value = getattr(trace, name)
+        if value is not None:
+            cols.append(name)
+            arrays.append(value)
+    with p.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(cols)
+        for row in zip(*arrays):
+            writer.writerow(["" if not math.isfinite(v) else repr(float(v)) for v in row])
+    if trace.conditions:
+        Path(str(p) + ".json").write_text(json.dumps(dict(trace.conditions), indent=2) + "\n")
+    return p
+
+
+def find_real_data_dir() -> Path | None:
+    """The shared real-data folder (``../shared/data/real`` from the project), if present."""
+    here = Path(__file__).resolve()
+    for parent in [Path.cwd(), *here.parents]:
+        candidate = parent.parent / "shared" / "data" / "real"
+        if candidate.is_dir():
+            return candidate
+        candidate = parent / "shared" / "data" / "real"
+        if candidate.is_dir():
+            return candidate
+    return None

@@ -1,0 +1,317 @@
+"""Named, optional model extensions ("effects").
+
+Each effect is a physical term the report's model lacks or is unsure of (MODEL.md §5). It
+has a name, parameters with units, bounds and an *off* value, and is off by default: a
+model with every effect at its off value is the report's model, bit for bit.
+
+The terms themselves live in the physics module they belong to (friction in mechanics,
+latent heat in the heat balance, ...), written so that the off value makes them vanish;
+this module only declares them and turns a user's settings into the numbers the simulator
+core reads. The diagnosis workflow uses exactly these declarations as its candidates.
+
+Some effects have alternative *forms* (e.g. a second-order instead of a first-order sensor
+lag). Candidates are always fitted in the ``default`` form; the other forms exist so that
+synthetic test data can hide an effect in a shape that differs from the candidate's (the
+'inverse crime' of fitting data with the model that generated it).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Iterable, Mapping
+
+from sma_gym._validation import require_finite
+
+
+@dataclass(frozen=True)
+class EffectParameter:
+    """One parameter of an effect."""
+
+    name: str
+    unit: str
+    off: float
+    lower: float
+    upper: float
+    description: str
+    typical: float
+    """A value clearly visible in the outputs, used by examples and tests."""
+
+
+@dataclass(frozen=True)
+class Effect:
+    """Declaration of a named effect."""
+
+    name: str
+    title: str
+    description: str
+    source: str
+    parameters: tuple[EffectParameter, ...]
+    forms: tuple[str, ...] = ("default",)
+    outputs: tuple[str, ...] = ("position", "resistance")
+    """Which measured outputs the effect can change (diagnosis uses this)."""
+
+    def parameter(self, name: str) -> EffectParameter:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise ValueError(
+            f"effect {self.name!r} has no parameter {name!r}; expected one of {[p.name for p in self.parameters]}"
+        )
+
+    @property
+    def off_values(self) -> dict[str, float]:
+        return {p.name: p.off for p in self.parameters}
+
+
+def _p(name: str, unit: str, off: float, lower: float, upper: float, typical: float, description: str) -> EffectParameter:
+    return EffectParameter(name, unit, off, lower, upper, description, typical)
+
+
+EFFECTS: dict[str, Effect] = {
+    e.name: e
+    for e in (
+        Effect(
+            name="transformation_spread",
+            title="Transformation-temperature spread",
+            description=(
+                "The wire transforms over a range of temperatures rather than at one A_s/A_f: "
+                "resistive heating is not uniform and the transition temperatures are a range "
+                "(§5.7). Modelled as sub-elements in series whose transformation temperatures "
+                "are offset by a distribution of standard deviation spread_k; the transformation "
+                "starts earlier and ends later, and minor loops become smooth."
+            ),
+            source="§5.7",
+            parameters=(
+                _p("spread_k", "K", 0.0, 0.0, 20.0, 6.0, "standard deviation of the local transformation temperatures"),
+            ),
+            forms=("default", "uniform"),
+        ),
+        Effect(
+            name="latent_heat",
+            title="Latent heat of transformation",
+            description=(
+                "The M->A transformation absorbs, the A->M transformation releases, latent heat "
+                "(Flexinol datasheet: 24.2 J/g). Adds Delta_H m xi' to the heat balance (§5.8)."
+            ),
+            source="§5.8",
+            parameters=(
+                _p("latent_heat_j_kg", "J/kg", 0.0, 0.0, 40000.0, 24200.0, "latent heat per unit mass"),
+            ),
+            forms=("default", "asymmetric"),
+        ),
+        Effect(
+            name="convection_change",
+            title="Changed convection law",
+            description=(
+                "The heat loss differs from h0 + h2 T^2: a fan, a draught, a different "
+                "temperature dependence (§5.4, §5.8, §7.1). h becomes "
+                "scale * (h0 + h1 (T - T_amb) + h2 T^2)."
+            ),
+            source="§5.4, §5.8, §7.1",
+            parameters=(
+                _p("scale", "-", 1.0, 0.2, 5.0, 1.6, "multiplier on the convection coefficient"),
+                _p("h1_w_m2_k2", "W/(m^2 K^2)", 0.0, -0.6, 3.0, 0.6, "added linear temperature dependence of h"),
+            ),
+            forms=("default", "power"),
+        ),
+        Effect(
+            name="coulomb_friction",
+            title="Coulomb friction",
+            description=(
+                "Dry friction in the guide or the etched 'bones' of the MigaOne (§3.2): a force "
+                "of constant magnitude opposing motion, and sticking below it."
+            ),
+            source="§3.2",
+            parameters=(_p("force_n", "N", 0.0, 0.0, 3.0, 0.6, "kinetic friction force"),),
+            forms=("default", "stribeck"),
+        ),
+        Effect(
+            name="sensor_lag",
+            title="Position-sensor lag",
+            description=(
+                "The position reading lags the true position more than the nominal filter "
+                "says: a slower filter, a compliant sensor coupling (§3.1, §3.4)."
+            ),
+            source="§3.1",
+            parameters=(_p("time_constant_s", "s", 0.0, 0.0, 0.5, 0.05, "time constant of the extra lag"),),
+            forms=("default", "second-order"),
+            outputs=("position",),
+        ),
+        Effect(
+            name="abbe_offset",
+            title="Sensor (Abbe) offset",
+            description=(
+                "The position sensor is off the line of motion; the actuator rotates when the "
+                "direction of motion changes, so the reading steps by offset_m between "
+                "contraction and extension (§3.2, Abbe's principle). It grows with wear."
+            ),
+            source="§3.2",
+            parameters=(
+                _p("offset_m", "m", 0.0, -2e-3, 2e-3, 0.3e-3, "step of the reading between contracting and extending"),
+            ),
+            forms=("default", "wear"),
+            outputs=("position",),
+        ),
+        Effect(
+            name="supply_sag",
+            title="Supply-voltage sag",
+            description=(
+                "The supply sags under load: a series resistance (source, wiring, MOSFET) "
+                "between the ideal supply and the wire, so the wire sees less than the nominal "
+                "voltage (§7.2)."
+            ),
+            source="§7.2",
+            parameters=(_p("series_resistance_ohm", "ohm", 0.0, 0.0, 10.0, 1.0, "series resistance"),),
+            forms=("default", "quadratic"),
+        ),
+        Effect(
+            name="pulse_settling",
+            title="Electrical settling of each PWM pulse",
+            description=(
+                "Voltage and current need time to settle after every switch-on (§4.1, fig. 4.1: "
+                "about 50 us). If the power settles too, each pulse delivers less energy than "
+                "V^2/R times its width: a dead zone at small duty and slower response at high "
+                "multiplexing frequencies (§9.2). Current rises as 1 - exp(-t/tau)."
+            ),
+            source="§4.1, §9.2",
+            parameters=(
+                _p("rise_time_constant_s", "s", 0.0, 0.0, 60e-6, 12e-6, "time constant of the current rise"),
+            ),
+            forms=("default", "delay"),
+        ),
+    )
+}
+
+
+def effect_names() -> tuple[str, ...]:
+    """Names of every effect in the library."""
+    return tuple(EFFECTS)
+
+
+def get_effect(name: str) -> Effect:
+    try:
+        return EFFECTS[name]
+    except KeyError:
+        raise ValueError(f"effect = {name!r}: expected one of {', '.join(map(repr, EFFECTS))}") from None
+
+
+@dataclass(frozen=True)
+class EffectSetting:
+    """An effect switched on with parameter values (and optionally a non-default form)."""
+
+    name: str
+    values: Mapping[str, float]
+    form: str = "default"
+
+    def __post_init__(self) -> None:
+        effect = get_effect(self.name)
+        if self.form not in effect.forms:
+            raise ValueError(f"effect {self.name!r} form = {self.form!r}: expected one of {effect.forms}")
+        clean: dict[str, float] = dict(effect.off_values)
+        for key, value in dict(self.values).items():
+            spec = effect.parameter(key)
+            number = require_finite(f"{self.name}.{key}", value, spec.unit)
+            if number < spec.lower or number > spec.upper:
+                raise ValueError(
+                    f"{self.name}.{key} = {value!r}: expected a value in [{spec.lower:g}, {spec.upper:g}] ({spec.unit})"
+                )
+            clean[key] = number
+        object.__setattr__(self, "values", clean)
+
+    @property
+    def is_off(self) -> bool:
+        effect = get_effect(self.name)
+        return all(self.values[p.name] == p.off for p in effect.parameters)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"parameters": dict(self.values), "form": self.form}
+
+
+@dataclass(frozen=True)
+class EffectSet:
+    """A set of effects switched on. Empty = the report's model."""
+
+    settings: tuple[EffectSetting, ...] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        names = [s.name for s in self.settings]
+        if len(set(names)) != len(names):
+            raise ValueError(f"effects = {names!r}: each effect may appear once")
+
+    @classmethod
+    def of(cls, spec: "EffectSet | Mapping[str, Any] | Iterable[EffectSetting] | None") -> "EffectSet":
+        """Build from an ``EffectSet``, a ``{name: {param: value}}`` mapping, settings, or None.
+
+        A mapping value may also be ``{"parameters": {...}, "form": "..."}``.
+        """
+        if spec is None:
+            return cls()
+        if isinstance(spec, EffectSet):
+            return spec
+        if isinstance(spec, Mapping):
+            settings = []
+            for name, value in spec.items():
+                if isinstance(value, EffectSetting):
+                    settings.append(value)
+                    continue
+                if not isinstance(value, Mapping):
+                    raise ValueError(f"effects[{name!r}] = {value!r}: expected a mapping of parameter values")
+                if "parameters" in value or "form" in value:
+                    unknown = set(value) - {"parameters", "form"}
+                    if unknown:
+                        raise ValueError(f"effects[{name!r}]: unknown key(s) {sorted(unknown)}")
+                    settings.append(EffectSetting(name, dict(value.get("parameters", {})), value.get("form", "default")))
+                else:
+                    settings.append(EffectSetting(name, dict(value)))
+            return cls(tuple(settings))
+        return cls(tuple(spec))
+
+    def get(self, name: str) -> EffectSetting | None:
+        for s in self.settings:
+            if s.name == name:
+                return s
+        return None
+
+    def value(self, effect: str, parameter: str) -> float:
+        setting = self.get(effect)
+        if setting is None:
+            return get_effect(effect).parameter(parameter).off
+        return setting.values[parameter]
+
+    def form(self, effect: str) -> str:
+        setting = self.get(effect)
+        return "default" if setting is None else setting.form
+
+    def with_setting(self, setting: EffectSetting) -> "EffectSet":
+        rest = tuple(s for s in self.settings if s.name != setting.name)
+        return EffectSet(rest + (setting,))
+
+    def active(self) -> tuple[EffectSetting, ...]:
+        return tuple(s for s in self.settings if not s.is_off)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {s.name: s.to_dict() for s in self.settings}
+
+
+def spread_nodes(spread_k: float, form: str, max_nodes: int) -> tuple[list[float], list[float]]:
+    """Temperature offsets and weights of the sub-elements of ``transformation_spread``.
+
+    ``default``: Gauss-Hermite quadrature of a normal distribution (5 nodes).
+    ``uniform``: equal sub-elements spread uniformly with the same standard deviation.
+    Zero spread gives one node, so the effect costs nothing when off.
+    """
+    if spread_k == 0.0:
+        return [0.0], [1.0]
+    if form == "uniform":
+        count = max_nodes
+        half_width = math.sqrt(3.0) * spread_k
+        offsets = [-half_width + (2 * k + 1) * half_width / count for k in range(count)]
+        # Midpoints of equal bins have a slightly smaller spread; rescale to exact std.
+        std = math.sqrt(sum(o * o for o in offsets) / count)
+        offsets = [o * spread_k / std for o in offsets]
+        return offsets, [1.0 / count] * count
+    # Probabilists' Gauss-Hermite, 5 nodes: exact for polynomials up to degree 9.
+    nodes = [-2.8569700138728056, -1.3556261799742657, 0.0, 1.3556261799742657, 2.8569700138728056]
+    weights = [0.011257411327720691, 0.2220759220056126, 0.5333333333333334, 0.2220759220056126, 0.011257411327720691]
+    return [spread_k * n for n in nodes], weights

@@ -1,0 +1,2 @@
+"""Electrical side: supply and PWM switch (``pwm``), multiplexer timing (``multiplexer``)
+and sensors (``sensors``)."""

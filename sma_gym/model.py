@@ -1,0 +1,138 @@
+"""A model configuration: actuator parameters plus the effects switched on.
+
+This is what the diagnosis workflow writes after it has added a missing effect, and what
+every env accepts at ``gymnasium.make(..., model=...)``: a preset name, a path to a JSON
+file written by :meth:`ModelConfig.save`, a :class:`ModelConfig`, or bare
+:class:`~sma_gym.params.ActuatorParams`.
+
+File format (JSON)::
+
+    {
+      "format": "sma-gym-model",
+      "version": 1,
+      "actuator": { "wire": {...}, "mechanism": {...}, "convection": {...},
+                    "driver": {...}, "sensors": {...}, "name": "...", "description": "..." },
+      "effects": { "latent_heat": {"parameters": {"latent_heat_j_kg": 20000.0}, "form": "default"} },
+      "notes": "free text, e.g. how the model was obtained"
+    }
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Mapping, Union
+
+from sma_gym.effects import EffectSet, EffectSetting
+from sma_gym.params import ActuatorParams, preset, preset_names
+
+FORMAT_NAME = "sma-gym-model"
+FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    """Actuator parameters and the effects switched on."""
+
+    actuator: ActuatorParams = field(default_factory=ActuatorParams)
+    effects: EffectSet = field(default_factory=EffectSet)
+    notes: str = ""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.actuator, ActuatorParams):
+            raise ValueError(f"ModelConfig.actuator = {self.actuator!r}: expected ActuatorParams")
+        object.__setattr__(self, "effects", EffectSet.of(self.effects))
+
+    @property
+    def name(self) -> str:
+        active = [s.name for s in self.effects.active()]
+        return self.actuator.name + ("+" + "+".join(active) if active else "")
+
+    def with_effect(self, name: str, values: Mapping[str, float], form: str = "default") -> "ModelConfig":
+        """Copy with one effect set (replacing an earlier setting of the same effect)."""
+        return replace(self, effects=self.effects.with_setting(EffectSetting(name, dict(values), form)))
+
+    def with_actuator(self, **changes: Any) -> "ModelConfig":
+        """Copy with actuator fields changed (``"driver.supply_voltage_v": 15.0``, ...)."""
+        return replace(self, actuator=self.actuator.with_changes(**changes))
+
+    def to_dict(self) -> dict[str, Any]:
+        actuator = self.actuator.to_dict()
+        _encode_inf(actuator)
+        return {
+            "format": FORMAT_NAME,
+            "version": FORMAT_VERSION,
+            "actuator": actuator,
+            "effects": self.effects.to_dict(),
+            "notes": self.notes,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, source: str = "model configuration") -> "ModelConfig":
+        if not isinstance(data, Mapping):
+            raise ValueError(f"{source}: expected a JSON object, got {type(data).__name__}")
+        if data.get("format") != FORMAT_NAME:
+            raise ValueError(f"{source}: 'format' = {data.get('format')!r}: expected {FORMAT_NAME!r}")
+        if data.get("version") != FORMAT_VERSION:
+            raise ValueError(f"{source}: 'version' = {data.get('version')!r}: expected {FORMAT_VERSION}")
+        try:
+            actuator = ActuatorParams.from_dict(data.get("actuator", {}))
+            effects = EffectSet.of(data.get("effects", {}))
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"{source}: {err}") from None
+        return cls(actuator=actuator, effects=effects, notes=str(data.get("notes", "")))
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write the configuration as JSON (see the module docstring)."""
+        target = Path(path)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        return target
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> "ModelConfig":
+        source = Path(path)
+        try:
+            data = json.loads(source.read_text())
+        except FileNotFoundError:
+            raise ValueError(f"model file {str(source)!r} does not exist") from None
+        except json.JSONDecodeError as err:
+            raise ValueError(f"model file {str(source)!r} is not valid JSON: {err}") from None
+        return cls.from_dict(data, source=f"model file {str(source)!r}")
+
+
+ModelSpec = Union[str, os.PathLike, ModelConfig, ActuatorParams, Mapping[str, Any], None]
+
+
+def load_model(spec: ModelSpec = None) -> ModelConfig:
+    """Resolve a preset name, a JSON file path, a dict, parameters or a config to a config."""
+    if spec is None:
+        return ModelConfig()
+    if isinstance(spec, ModelConfig):
+        return spec
+    if isinstance(spec, ActuatorParams):
+        return ModelConfig(actuator=spec)
+    if isinstance(spec, Mapping):
+        return ModelConfig.from_dict(spec)
+    if isinstance(spec, (str, os.PathLike)):
+        text = os.fspath(spec)
+        if text in preset_names():
+            return ModelConfig(actuator=preset(text))
+        if text.endswith(".json") or os.path.sep in text or os.path.exists(text):
+            return ModelConfig.load(text)
+        raise ValueError(
+            f"model = {text!r}: expected a preset name ({', '.join(preset_names())}) or a path to a model JSON file"
+        )
+    raise ValueError(f"model = {spec!r}: expected a preset name, a path, ModelConfig or ActuatorParams")
+
+
+def _encode_inf(tree: Any) -> None:
+    if isinstance(tree, dict):
+        for key, value in tree.items():
+            if isinstance(value, float) and math.isinf(value):
+                tree[key] = "inf"
+            else:
+                _encode_inf(value)

@@ -1,0 +1,28 @@
+"""Matplotlib helpers shared by every report (headless: the Agg backend)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+
+def new_figure(rows: int, cols: int, size: tuple[float, float] = (10, 6)):
+    """A figure and a 2-D array of axes."""
+    fig, axes = plt.subplots(rows, cols, figsize=size, squeeze=False)
+    return fig, np.asarray(axes)
+
+
+def save(fig, path: Path | str) -> Path:
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    for ax in fig.axes:
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(target, dpi=110)
+    plt.close(fig)
+    return target

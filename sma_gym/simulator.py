@@ -1,0 +1,479 @@
+"""The simulator: n actuators advanced together in control steps.
+
+>>> from sma_gym import Simulator
+>>> sim = Simulator("standard", n=1)
+>>> sim.step(1.0)                 # one 1 ms control step at full duty
+>>> float(sim.position_m[0]) >= 0
+True
+
+Every user (envs, multiplexer, vector env, model fitting) goes through this class and the
+single compiled core in :mod:`sma_gym.core.kernel`. State lives in ``state`` (one column
+per actuator, rows in :mod:`sma_gym.core.layout`); the properties below are views of it,
+so they always show the current values without copying.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from sma_gym._validation import require_choice, require_range
+from sma_gym.core import layout as L
+from sma_gym.core.kernel import advance
+from sma_gym.effects import spread_nodes
+from sma_gym.electrical.multiplexer import Multiplexer
+from sma_gym.electrical.pwm import RISE_DELAY, RISE_EXPONENTIAL, SAG_QUADRATIC, SAG_RESISTOR
+from sma_gym.electrical.sensors import ABBE_STEP, ABBE_WEAR
+from sma_gym.model import ModelConfig, ModelSpec, load_model
+from sma_gym.physics.mechanics import FRICTION_COULOMB, FRICTION_STRIBECK
+from sma_gym.physics.resistance import wire_resistance
+from sma_gym.physics.thermal import CONVECTION_LAW, CONVECTION_POWER
+
+PWM_MODES = ("averaged", "resolved")
+
+MAX_TEMPERATURE_STEP_K = 0.5
+"""Largest temperature rise per integration sub-step at full power (accuracy bound)."""
+
+DEFAULT_MAX_SUBSTEP_S = 1e-3
+
+_NO_NOISE = np.zeros((0, 4, 0))
+_NO_RECORD = np.zeros((0, 0, 0))
+_NO_ROWS = np.zeros(0, dtype=np.int64)
+
+
+def pack_params(
+    model: ModelConfig,
+    *,
+    pwm_mode: str = "averaged",
+    pwm_period_s: float | None = None,
+    phase: float = 0.0,
+    duty_max: float = 1.0,
+    max_substep_s: float = DEFAULT_MAX_SUBSTEP_S,
+) -> np.ndarray:
+    """Turn a model configuration into one column of the core's parameter matrix."""
+    require_choice("pwm_mode", pwm_mode, PWM_MODES)
+    p = model.actuator
+    w, m, c, d, s = p.wire, p.mechanism, p.convection, p.driver, p.sensors
+    fx = model.effects
+    col = np.zeros(L.N_PARAMS)
+
+    col[L.P_AREA] = w.area_m2
+    col[L.P_LENGTH] = w.length_m
+    col[L.P_HEAT_CAP] = w.heat_capacity_j_k
+    col[L.P_SPECIFIC_HEAT] = w.specific_heat_j_kg_k
+    col[L.P_SURFACE] = w.surface_m2
+
+    h_scale = c.scale_for(w.diameter_m)
+    conv_scale = fx.value("convection_change", "scale")
+    conv_form = fx.form("convection_change")
+    if conv_form == "power":
+        col[L.P_H0] = c.h0_w_m2_k * h_scale
+        col[L.P_H2] = c.h2_w_m2_k3 * h_scale
+        col[L.P_CONV_FORM] = CONVECTION_POWER
+        col[L.P_CONV_POWER_SCALE] = conv_scale
+    else:
+        col[L.P_H0] = conv_scale * c.h0_w_m2_k * h_scale
+        col[L.P_H1] = conv_scale * fx.value("convection_change", "h1_w_m2_k2") * h_scale
+        col[L.P_H2] = conv_scale * c.h2_w_m2_k3 * h_scale
+        col[L.P_CONV_FORM] = CONVECTION_LAW
+        col[L.P_CONV_POWER_SCALE] = 1.0
+    col[L.P_T_AMB] = c.ambient_temperature_c
+
+    col[L.P_D_A] = w.youngs_modulus_austenite_pa
+    col[L.P_D_M] = w.youngs_modulus_martensite_pa
+    col[L.P_EPS0] = w.max_transformation_strain
+    col[L.P_ALPHA_TH] = w.thermal_expansion_1_k
+    col[L.P_C_A] = w.stress_coefficient_austenite_pa_k
+    col[L.P_C_M] = w.stress_coefficient_martensite_pa_k
+    col[L.P_A_S] = w.austenite_start_c
+    col[L.P_A_F] = w.austenite_finish_c
+    col[L.P_M_S] = w.martensite_start_c
+    col[L.P_M_F] = w.martensite_finish_c
+    latent = fx.value("latent_heat", "latent_heat_j_kg") / w.specific_heat_j_kg_k
+    col[L.P_LATENT] = latent
+    col[L.P_LATENT_COOL] = latent * (0.7 if fx.form("latent_heat") == "asymmetric" else 1.0)
+    offsets, weights = spread_nodes(
+        fx.value("transformation_spread", "spread_k"), fx.form("transformation_spread"), L.MAX_SPREAD_NODES
+    )
+    col[L.P_N_NODES] = len(offsets)
+    for k, (o, wt) in enumerate(zip(offsets, weights)):
+        col[L.P_NODE_OFFSET0 + k] = o
+        col[L.P_NODE_WEIGHT0 + k] = wt
+
+    col[L.P_RHO_M] = w.resistivity_martensite_ohm_m
+    col[L.P_RHO_A] = w.resistivity_austenite_ohm_m
+    col[L.P_TCR_M] = w.resistivity_tcr_martensite_1_k
+    col[L.P_TCR_A] = w.resistivity_tcr_austenite_1_k
+    col[L.P_T_REF_R] = w.resistivity_reference_c
+
+    col[L.P_MASS] = m.moving_mass_kg
+    col[L.P_DAMPING] = m.damping_n_s_m
+    col[L.P_K_SPRING] = m.spring_stiffness_n_m
+    col[L.P_F_PRE] = m.spring_preload_n
+    col[L.P_SIGMA0] = p.rest_stress_pa
+    col[L.P_F_COULOMB] = fx.value("coulomb_friction", "force_n")
+    col[L.P_FRICTION_FORM] = FRICTION_STRIBECK if fx.form("coulomb_friction") == "stribeck" else FRICTION_COULOMB
+
+    col[L.P_V_SUPPLY] = d.supply_voltage_v
+    col[L.P_R_SERIES] = fx.value("supply_sag", "series_resistance_ohm")
+    col[L.P_SAG_FORM] = SAG_QUADRATIC if fx.form("supply_sag") == "quadratic" else SAG_RESISTOR
+    col[L.P_SAG_I_REF] = d.supply_voltage_v / w.cold_resistance_ohm
+    period = 1.0 / d.pwm_frequency_hz if pwm_period_s is None else float(pwm_period_s)
+    col[L.P_PWM_PERIOD] = period
+    col[L.P_PWM_PHASE] = phase
+    col[L.P_DUTY_MAX] = duty_max
+    col[L.P_RESOLVED] = 1.0 if pwm_mode == "resolved" else 0.0
+    col[L.P_T_SETTLE] = d.settling_time_s
+    col[L.P_TAU_RISE] = fx.value("pulse_settling", "rise_time_constant_s")
+    col[L.P_RISE_FORM] = RISE_DELAY if fx.form("pulse_settling") == "delay" else RISE_EXPONENTIAL
+    col[L.P_EOT] = d.end_of_travel_m
+    col[L.P_EOT_RELEASE] = d.end_of_travel_release_m
+
+    fc = s.position_filter_cutoff_hz
+    col[L.P_TAU_FILTER] = 1.0 / (2.0 * math.pi * fc) if fc > 0.0 else 0.0
+    col[L.P_TAU_LAG] = fx.value("sensor_lag", "time_constant_s")
+    col[L.P_LAG_ORDER] = 2.0 if fx.form("sensor_lag") == "second-order" else 1.0
+    col[L.P_ABBE] = fx.value("abbe_offset", "offset_m")
+    col[L.P_ABBE_FORM] = ABBE_WEAR if fx.form("abbe_offset") == "wear" else ABBE_STEP
+    col[L.P_POS_NOISE] = s.position_noise_std_m
+    col[L.P_POS_RESOLUTION] = s.position_resolution_m
+    col[L.P_R_NOISE] = s.resistance_noise_std_ohm
+    col[L.P_I_NOISE] = s.current_noise_std_a
+    col[L.P_V_NOISE] = s.voltage_noise_std_v
+
+    # Accuracy bound on the sub-step: full power may raise T by at most 0.5 K per step.
+    # The smallest resistance the wire can have: lower resistivity, fully contracted.
+    rho_min = min(w.resistivity_martensite_ohm_m, w.resistivity_austenite_ohm_m)
+    r_min = 0.9 * rho_min * (1.0 - w.max_transformation_strain) ** 2 * w.length_m / w.area_m2
+    p_max = d.supply_voltage_v**2 / r_min
+    col[L.P_H_MAX] = min(max_substep_s, MAX_TEMPERATURE_STEP_K * w.heat_capacity_j_k / p_max)
+    return col
+
+
+class Simulator:
+    """n SMA actuators advanced together by control steps of ``control_period_s``.
+
+    Parameters
+    ----------
+    model:
+        A preset name, a model JSON path, a :class:`ModelConfig`, :class:`ActuatorParams`,
+        or a sequence of these (one per actuator; then ``n`` may be omitted).
+    n:
+        Number of actuators (columns) when ``model`` is a single model.
+    control_period_s:
+        Length of one :meth:`step` (the report's control loop runs at 1 kHz).
+    pwm_mode:
+        ``"averaged"`` (fast, default) or ``"resolved"`` (pulse by pulse).
+    multiplexer:
+        A :class:`Multiplexer` sweeping one PWM over the actuators (requires n equal to its
+        ``n_actuators``); implies per-actuator duty at most 1/n and phase-shifted slots.
+    pwm_slots:
+        The general form of the above: one ``(period_s, phase, duty_max)`` per actuator.
+        Actuators on one multiplexer do not interact (only one conducts at a time), so one
+        column with ``(1 / f_cycle, 0, 1 / n)`` simulates any actuator of an n-bank exactly;
+        this lets experiments batch many banks into one run.
+    seed, rng:
+        Randomness for sensor noise (only drawn when a noise level is non-zero).
+    max_substep_s:
+        Upper bound on the integration sub-step (see :mod:`sma_gym.core.kernel`).
+    """
+
+    def __init__(
+        self,
+        model: ModelSpec | Sequence[ModelSpec] = None,
+        n: int | None = None,
+        *,
+        control_period_s: float = 1e-3,
+        pwm_mode: str = "averaged",
+        multiplexer: Multiplexer | None = None,
+        pwm_slots: Sequence[tuple[float, float, float]] | None = None,
+        seed: int | None = None,
+        rng: np.random.Generator | None = None,
+        max_substep_s: float = DEFAULT_MAX_SUBSTEP_S,
+    ) -> None:
+        require_choice("pwm_mode", pwm_mode, PWM_MODES)
+        self.control_period_s = require_range("control_period_s", control_period_s, 1e-6, 10.0, "s")
+        require_range("max_substep_s", max_substep_s, 1e-7, 0.1, "s")
+        if isinstance(model, (list, tuple)):
+            models = [load_model(m) for m in model]
+            if n is not None and n != len(models):
+                raise ValueError(f"n = {n!r}: expected {len(models)} (one per model given)")
+            if not models:
+                raise ValueError("model = []: expected at least one model")
+        else:
+            count = 1 if n is None else n
+            if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+                raise ValueError(f"n = {n!r}: expected an integer >= 1")
+            models = [load_model(model)] * int(count)
+        self.models: list[ModelConfig] = models
+        self.n = len(models)
+        self.pwm_mode = pwm_mode
+        self.multiplexer = multiplexer
+        if multiplexer is not None and multiplexer.n_actuators != self.n:
+            raise ValueError(
+                f"multiplexer.n_actuators = {multiplexer.n_actuators}: expected {self.n} (the number of actuators)"
+            )
+        if multiplexer is not None and pwm_slots is not None:
+            raise ValueError("give either multiplexer or pwm_slots, not both")
+        if multiplexer is not None:
+            pwm_slots = [(multiplexer.period_s, multiplexer.phase(j), multiplexer.duty_max) for j in range(self.n)]
+        if pwm_slots is not None:
+            pwm_slots = [tuple(map(float, slot)) for slot in pwm_slots]
+            if len(pwm_slots) != self.n:
+                raise ValueError(f"pwm_slots has {len(pwm_slots)} entries: expected {self.n} (one per actuator)")
+            for j, (period, phase, duty_max) in enumerate(pwm_slots):
+                require_range(f"pwm_slots[{j}].period_s", period, 1e-6, 1.0, "s")
+                require_range(f"pwm_slots[{j}].phase", phase, 0.0, 1.0, upper_open=True)
+                require_range(f"pwm_slots[{j}].duty_max", duty_max, 0.0, 1.0, lower_open=True)
+        self.rng = rng if rng is not None else np.random.default_rng(seed)
+        self.max_substep_s = max_substep_s
+
+        columns = []
+        cache: dict[int, np.ndarray] = {}
+        for index, m in enumerate(models):
+            if pwm_slots is not None:
+                period, phase, duty_max = pwm_slots[index]
+                col = pack_params(
+                    m, pwm_mode=pwm_mode, pwm_period_s=period, phase=phase, duty_max=duty_max, max_substep_s=max_substep_s
+                )
+            else:
+                key = id(m)
+                if key not in cache:
+                    cache[key] = pack_params(m, pwm_mode=pwm_mode, max_substep_s=max_substep_s)
+                col = cache[key]
+            columns.append(col)
+        self.params = np.ascontiguousarray(np.stack(columns, axis=0))
+        self.state = np.zeros((self.n, L.N_STATE))
+        self._has_noise = bool(
+            np.any(self.params[:, [L.P_POS_NOISE, L.P_R_NOISE, L.P_I_NOISE, L.P_V_NOISE]] > 0.0)
+        )
+        self._duty_buffer = np.zeros((1, self.n))
+        self.reset()
+
+    # ------------------------------------------------------------------------------------
+    # Reset and stepping
+    # ------------------------------------------------------------------------------------
+    def reset(self, mask: np.ndarray | None = None, *, temperature_c: float | np.ndarray | None = None) -> None:
+        """Put actuators (all, or those where ``mask`` is True) at rest: cold, extended.
+
+        ``temperature_c`` starts them at another temperature, still fully martensitic
+        (must be below the stress-shifted A_s, i.e. a state the wire can rest in).
+        """
+        cols = slice(None) if mask is None else np.asarray(mask, dtype=bool)
+        p = self.params
+        s = self.state
+        t_amb = p[cols, L.P_T_AMB]
+        if temperature_c is None:
+            t0 = t_amb
+        else:
+            t0 = np.broadcast_to(np.asarray(temperature_c, dtype=float), np.shape(t_amb))
+            limit = p[cols, L.P_A_S] + p[cols, L.P_SIGMA0] / p[cols, L.P_C_A]
+            if not np.all(np.isfinite(t0)) or np.any(t0 > limit) or np.any(t0 < -60.0):
+                raise ValueError(
+                    f"temperature_c = {temperature_c!r}: expected a finite value between -60 degC and the "
+                    f"stress-shifted austenite start ({float(np.min(limit)):.1f} degC)"
+                )
+        s[cols, :] = 0.0
+        s[cols, L.S_T] = t0
+        s[cols, L.S_T_RESET] = t0
+        s[cols, L.S_XI] = 1.0
+        s[cols, L.S_XI_NODE0 : L.S_XI_NODE0 + L.MAX_SPREAD_NODES] = 1.0
+        s[cols, L.S_DIRECTION] = -1.0
+        abbe = np.where(p[cols, L.P_ABBE_FORM] > 0.5, 0.3, 1.0) * (-0.5 * p[cols, L.P_ABBE])
+        # Thermal expansion at a warm start lengthens the wire a little (x < 0).
+        x0 = np.zeros_like(t0) if temperature_c is None else self._rest_position(cols, t0)
+        s[cols, L.S_X] = x0
+        s[cols, L.S_SIGMA] = (p[cols, L.P_F_PRE] + p[cols, L.P_K_SPRING] * x0) / p[cols, L.P_AREA]
+        reading = x0 + abbe
+        s[cols, L.S_FILTER] = reading
+        s[cols, L.S_LAG1] = reading
+        s[cols, L.S_LAG2] = reading
+        s[cols, L.S_POS_MEAS] = reading
+        s[cols, L.S_R_MEAS] = np.nan
+        s[cols, L.S_I_MEAS] = np.nan
+        s[cols, L.S_V_MEAS] = np.nan
+        # The first PWM period of actuator j starts after phase_j * period.
+        s[cols, L.S_PWM_TAU] = (1.0 - p[cols, L.P_PWM_PHASE]) * p[cols, L.P_PWM_PERIOD]
+        s[cols, L.S_R_TRUE] = wire_resistance(
+            x0, 1.0, t0, p[cols, L.P_RHO_M], p[cols, L.P_RHO_A], p[cols, L.P_TCR_M], p[cols, L.P_TCR_A],
+            p[cols, L.P_T_REF_R], p[cols, L.P_LENGTH], p[cols, L.P_AREA],
+        )
+        s[cols, L.S_FORCE] = p[cols, L.P_F_PRE] + p[cols, L.P_K_SPRING] * x0
+
+    def _rest_position(self, cols, t0: np.ndarray) -> np.ndarray:
+        """Static position of a martensitic wire at temperature t0 (thermal expansion only)."""
+        p = self.params
+        area, length, d_m = p[cols, L.P_AREA], p[cols, L.P_LENGTH], p[cols, L.P_D_M]
+        strain = -p[cols, L.P_ALPHA_TH] * (t0 - p[cols, L.P_T_AMB])
+        # k x + F_pre = A (sigma0 + D_M (strain - x / l0))
+        return area * d_m * strain / (p[cols, L.P_K_SPRING] + area * d_m / length)
+
+    def step(self, duty: float | np.ndarray) -> None:
+        """Advance one control step with the given duty cycle(s) (clipped to [0, duty_max]).
+
+        Raises ``ValueError`` for NaN/inf or a wrong shape.
+        """
+        if type(duty) is float or type(duty) is int:
+            # Fast path for one scalar (a single env calls this every control step).
+            if not math.isfinite(duty):
+                raise ValueError(f"duty = {duty!r}: expected finite values in [0, 1]")
+            if self.n == 1:
+                self._duty_buffer[0, 0] = duty
+            else:
+                self._duty_buffer.fill(duty)
+        else:
+            arr = np.asarray(duty, dtype=float)
+            if arr.ndim == 0:
+                self._duty_buffer[0, :] = float(arr)
+            elif arr.shape == (self.n,):
+                self._duty_buffer[0, :] = arr
+            else:
+                raise ValueError(f"duty has shape {arr.shape}: expected a scalar or shape ({self.n},)")
+            if not np.isfinite(self._duty_buffer).all():
+                raise ValueError(f"duty = {duty!r}: expected finite values in [0, 1]")
+        self.step_unchecked(self._duty_buffer)
+
+    def step_unchecked(self, duty_2d: np.ndarray) -> None:
+        """Fast path for the envs: ``duty_2d`` is a finite float64 array of shape (1, n)."""
+        noise = self.rng.standard_normal((1, 4, self.n)) if self._has_noise else _NO_NOISE
+        advance(self.state, self.params, duty_2d, self.control_period_s, noise, _NO_RECORD, _NO_ROWS)
+
+    def run(
+        self,
+        duty: np.ndarray,
+        record: Iterable[str] = ("position_m", "position_measured_m", "temperature_c", "martensite_fraction"),
+    ) -> dict[str, np.ndarray]:
+        """Run ``len(duty)`` control steps and return the recorded state after each.
+
+        ``duty`` has shape (n_steps,) (same for every actuator) or (n_steps, n). ``record``
+        names state quantities (see :data:`RECORDABLE`); each is returned with shape
+        (n_steps, n). ``"time_s"`` is always included.
+        """
+        arr = np.asarray(duty, dtype=float)
+        if arr.ndim == 1:
+            arr = np.repeat(arr[:, None], self.n, axis=1)
+        if arr.ndim != 2 or arr.shape[1] != self.n:
+            raise ValueError(f"duty has shape {np.shape(duty)}: expected (n_steps,) or (n_steps, {self.n})")
+        if not np.all(np.isfinite(arr)):
+            bad = np.argwhere(~np.isfinite(arr))[0]
+            raise ValueError(f"duty[{bad[0]}] = {arr[tuple(bad)]!r}: expected finite values in [0, 1]")
+        names = list(dict.fromkeys(["time_s", *record]))
+        rows = []
+        for name in names:
+            if name not in L.STATE_ROWS:
+                raise ValueError(f"record = {name!r}: expected one of {sorted(L.STATE_ROWS)}")
+            rows.append(L.STATE_ROWS[name])
+        rows_arr = np.asarray(rows, dtype=np.int64)
+        n_steps = arr.shape[0]
+        out = np.empty((n_steps, len(rows), self.n))
+        noise = self.rng.standard_normal((n_steps, 4, self.n)) if self._has_noise else _NO_NOISE
+        advance(self.state, self.params, np.ascontiguousarray(arr), self.control_period_s, noise, out, rows_arr)
+        return {name: out[:, j, :] for j, name in enumerate(names)}
+
+    # ------------------------------------------------------------------------------------
+    # Views of the state (shape (n,), always current)
+    # ------------------------------------------------------------------------------------
+    @property
+    def position_m(self) -> np.ndarray:
+        """True contraction x [m] (0 = extended)."""
+        return self.state[:, L.S_X]
+
+    @property
+    def velocity_m_s(self) -> np.ndarray:
+        return self.state[:, L.S_V]
+
+    @property
+    def temperature_c(self) -> np.ndarray:
+        return self.state[:, L.S_T]
+
+    @property
+    def stress_pa(self) -> np.ndarray:
+        return self.state[:, L.S_SIGMA]
+
+    @property
+    def martensite_fraction(self) -> np.ndarray:
+        return self.state[:, L.S_XI]
+
+    @property
+    def position_measured_m(self) -> np.ndarray:
+        """Last position reading (filtered, sampled, with noise if configured) [m]."""
+        return self.state[:, L.S_POS_MEAS]
+
+    @property
+    def resistance_measured_ohm(self) -> np.ndarray:
+        """Last resistance reading V/I [ohm]; NaN where no reading was possible (pulse
+        shorter than the settling time, no pulse, end-of-travel cut)."""
+        return self.state[:, L.S_R_MEAS]
+
+    @property
+    def current_measured_a(self) -> np.ndarray:
+        return self.state[:, L.S_I_MEAS]
+
+    @property
+    def voltage_measured_v(self) -> np.ndarray:
+        return self.state[:, L.S_V_MEAS]
+
+    @property
+    def resistance_ohm(self) -> np.ndarray:
+        """True wire resistance now [ohm]."""
+        return self.state[:, L.S_R_TRUE]
+
+    @property
+    def power_w(self) -> np.ndarray:
+        """Mean electrical power into the wire over the last control step [W]."""
+        return self.state[:, L.S_POWER]
+
+    @property
+    def electrical_energy_j(self) -> np.ndarray:
+        return self.state[:, L.S_E_ELECTRIC]
+
+    @property
+    def spring_force_n(self) -> np.ndarray:
+        """Bias-spring force k x + F_pre [N] (what the report's force transducer reads)."""
+        return self.state[:, L.S_FORCE]
+
+    @property
+    def time_s(self) -> np.ndarray:
+        return self.state[:, L.S_TIME]
+
+    @property
+    def duty_applied(self) -> np.ndarray:
+        """Duty applied in the last control step, after clipping to [0, duty_max]."""
+        return self.state[:, L.S_DUTY_CMD]
+
+    @property
+    def duty_max(self) -> np.ndarray:
+        return self.params[:, L.P_DUTY_MAX]
+
+    def energy_balance(self) -> dict[str, np.ndarray]:
+        """Energy accounts since reset [J], one value per actuator.
+
+        ``electrical + latent_released = convected + stored_heat + mechanical_work`` holds
+        to rounding (the integrator books what it applies); ``residual`` is the difference.
+        ``mechanical_work`` in turn equals ``kinetic + spring + dissipated`` up to the
+        numerical damping of the backward-Euler step (``mechanical_residual``).
+        """
+        s, p = self.state, self.params
+        stored = p[:, L.P_HEAT_CAP] * (s[:, L.S_T] - s[:, L.S_T_RESET])
+        kinetic = 0.5 * p[:, L.P_MASS] * s[:, L.S_V] ** 2
+        x = s[:, L.S_X]
+        # Potential of the preloaded spring relative to rest (x = 0).
+        spring = 0.5 * p[:, L.P_K_SPRING] * x**2 + p[:, L.P_F_PRE] * x
+        out = {
+            "electrical": s[:, L.S_E_ELECTRIC].copy(),
+            "latent_released": s[:, L.S_E_LATENT].copy(),
+            "convected": s[:, L.S_E_CONVECTED].copy(),
+            "stored_heat": stored,
+            "mechanical_work": s[:, L.S_W_MECHANICAL].copy(),
+            "kinetic": kinetic,
+            "spring": spring,
+            "dissipated": s[:, L.S_E_DISSIPATED].copy(),
+        }
+        out["residual"] = out["electrical"] + out["latent_released"] - out["convected"] - stored - out["mechanical_work"]
+        out["mechanical_residual"] = out["mechanical_work"] - kinetic - spring - out["dissipated"]
+        return out
+
+
+RECORDABLE = tuple(sorted(L.STATE_ROWS))

@@ -1,0 +1,118 @@
+"""The measured-data format: loading, validation messages, and never touching the input."""
+
+import hashlib
+import json
+
+import numpy as np
+import pytest
+
+from sma_gym.data import MeasuredDataError, find_real_data_dir, load_trace, load_traces, write_trace
+from sma_gym.data.measured import MeasuredTrace
+
+
+def write(path, text):
+    path.write_text(text)
+    return path
+
+
+def digest(path):
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_a_valid_file_with_sidecar_loads(tmp_path):
+    f = write(tmp_path / "ok.csv", "t,duty,position,resistance\n0,0,0,\n0.001,0.5,1e-5,3.7\n0.002,0.5,2e-5,3.69\n")
+    write(tmp_path / "ok.csv.json", json.dumps({"supply_voltage_v": 10, "wire_diameter_m": 3e-4}))
+    before = digest(f)
+    trace = load_trace(f)
+    assert trace.conditions == {"supply_voltage_v": 10.0, "wire_diameter_m": 3e-4}
+    assert np.isnan(trace.resistance[0]) and trace.resistance[1] == 3.7
+    assert set(trace.outputs()) == {"position", "resistance"}
+    assert digest(f) == before
+
+
+def test_every_problem_is_reported_with_file_row_and_column(tmp_path):
+    f = write(
+        tmp_path / "bad.csv",
+        "t,duty,position\n0,0,0\n0.001,1.5,0\n0.001,0.2,0\n0.003,,0\n0.004,0.1,nan\n",
+    )
+    before = digest(f)
+    with pytest.raises(MeasuredDataError) as err:
+        load_trace(f)
+    text = str(err.value)
+    assert f"{f}:3:duty: 1.5 outside [0, 1]" in text
+    assert f"{f}:4:t:" in text and "does not increase" in text
+    assert f"{f}:5:duty: missing" in text
+    assert f"{f}:6:position: missing" in text
+    assert len(err.value.problems) == 4
+    assert digest(f) == before
+
+
+@pytest.mark.parametrize(
+    "text, needle",
+    [
+        ("t,position\n0,0\n1,0\n", "missing required column"),
+        ("t,duty,position\n0,0,5\n0.001,0,6\n", "millimetres"),
+        ("t,duty,position\n0,0,0\n1,0,0\n2,0,0\n", "milliseconds"),
+        ("t,duty,position,speed\n0,0,0,1\n0.001,0,0,1\n", "unknown column"),
+        ("t,duty,position\n0,50,0\n0.001,50,0\n", "a percentage?"),
+        ("", "empty file"),
+        ("t,duty,position\n0,0,0\n", "at least 2"),
+        ("t,duty,position\n0,0,x\n0.001,0,0\n", "'x' is not a number"),
+    ],
+)
+def test_unit_slips_and_malformed_files_are_named(tmp_path, text, needle):
+    f = write(tmp_path / "f.csv", text)
+    with pytest.raises(MeasuredDataError, match=needle):
+        load_trace(f)
+
+
+def test_bad_sidecars_are_reported(tmp_path):
+    f = write(tmp_path / "s.csv", "t,duty,position\n0,0,0\n0.001,0,0\n")
+    write(tmp_path / "s.csv.json", json.dumps({"supply_voltage_v": -3, "colour": "blue"}))
+    with pytest.raises(MeasuredDataError) as err:
+        load_trace(f)
+    assert "supply_voltage_v" in str(err.value) and "colour" in str(err.value)
+
+
+def test_several_files_report_all_their_problems(tmp_path):
+    a = write(tmp_path / "a.csv", "t,duty,position\n0,2,0\n0.001,0,0\n")
+    b = write(tmp_path / "b.csv", "t,duty\n0,0\n")
+    with pytest.raises(MeasuredDataError) as err:
+        load_traces([a, b, tmp_path / "missing.csv"])
+    text = str(err.value)
+    assert "a.csv:2:duty" in text and "b.csv:1:position" in text and "missing.csv: file does not exist" in text
+
+
+def test_write_then_load_round_trips_and_refuses_to_overwrite(tmp_path):
+    trace = MeasuredTrace(
+        path="x",
+        t=np.arange(5) * 1e-3,
+        duty=np.array([0, 0.1, 0.2, 0.3, 0.4]),
+        position=np.arange(5) * 1e-5,
+        resistance=np.array([np.nan, 3.7, 3.6, np.nan, 3.5]),
+        conditions={"supply_voltage_v": 10.0},
+    )
+    path = write_trace(tmp_path / "w.csv", trace)
+    back = load_trace(path)
+    assert np.array_equal(back.position, trace.position)
+    assert np.array_equal(back.resistance, trace.resistance, equal_nan=True)
+    assert back.conditions == {"supply_voltage_v": 10.0}
+    with pytest.raises(FileExistsError):
+        write_trace(path, trace)
+
+
+def test_zero_order_hold_resampling_to_control_steps():
+    trace = MeasuredTrace(path="x", t=np.array([0.0, 0.01, 0.02, 0.03]), duty=np.array([0.0, 0.5, 1.0, 1.0]), position=np.zeros(4))
+    ends, duty = trace.duty_at_control_steps(0.005)
+    assert np.allclose(ends, [0.005, 0.01, 0.015, 0.02, 0.025, 0.03])
+    assert np.allclose(duty, [0.0, 0.0, 0.5, 0.5, 1.0, 1.0])
+
+
+def test_the_real_bench_files_load_when_present():
+    folder = find_real_data_dir()
+    if folder is None:
+        pytest.skip("../shared/data/real is not present on this machine")
+    for name in ("step01.csv", "ramp01.csv"):
+        trace = load_trace(folder / name)
+        assert trace.duration_s == pytest.approx(49.99, abs=0.02)
+        assert 0.015 < trace.position.max() < 0.018

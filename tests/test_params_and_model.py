@@ -1,0 +1,136 @@
+"""Parameters, presets, errata and model configuration files."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from sma_gym import ModelConfig, Simulator, load_model, preset, preset_names
+from sma_gym.effects import EFFECTS, EffectSet
+from sma_gym.params import ActuatorParams, Convection, Driver, Mechanism, Wire, standard
+
+
+def test_presets_cover_the_reports_conditions_and_the_bench():
+    names = set(preset_names())
+    for required in (
+        "standard",
+        "forced-convection",
+        "supply-5v",
+        "supply-7.5v",
+        "supply-15v",
+        "supply-20v",
+        "wire-0.2mm",
+        "wire-0.5mm",
+        "bench-0.5mm-ht",
+    ):
+        assert required in names
+    assert preset("supply-15v").driver.supply_voltage_v == 15.0
+    assert preset("wire-0.2mm").wire.diameter_m == pytest.approx(0.2e-3)
+    assert preset("forced-convection").convection.h0_w_m2_k > 2.0 * standard().convection.h0_w_m2_k
+
+
+def test_unknown_preset_names_the_value_and_the_choices():
+    with pytest.raises(ValueError, match=r"'nope'.*'standard'"):
+        preset("nope")
+
+
+def test_errata_are_applied():
+    w = standard().wire
+    # c_p in J/(kg K), not 0.8374; mass = rho * A * l0, not d * A * rho.
+    assert w.specific_heat_j_kg_k == pytest.approx(837.4)
+    assert w.mass_kg == pytest.approx(6500 * math.pi * 0.3e-3**2 / 4 * 0.273)
+    # The preload is the measured 2 N of fig. 8.1, i.e. ~28 MPa on 0.3 mm.
+    assert standard().rest_stress_pa == pytest.approx(2.0 / (math.pi * 0.3e-3**2 / 4))
+
+
+def test_diameter_scales_area_mass_surface_and_resistance_physically():
+    thin, std, thick = preset("wire-0.2mm"), standard(), preset("wire-0.5mm")
+    for p, d in ((thin, 0.2), (thick, 0.5)):
+        ratio = d / 0.3
+        assert p.wire.area_m2 / std.wire.area_m2 == pytest.approx(ratio**2)
+        assert p.wire.mass_kg / std.wire.mass_kg == pytest.approx(ratio**2)
+        assert p.wire.surface_m2 / std.wire.surface_m2 == pytest.approx(ratio)
+        assert p.wire.cold_resistance_ohm / std.wire.cold_resistance_ohm == pytest.approx(ratio**-2)
+        r_sim = Simulator(p).resistance_ohm[0]
+        assert r_sim == pytest.approx(p.wire.cold_resistance_ohm)
+
+
+@pytest.mark.parametrize(
+    "build, name",
+    [
+        (lambda: Wire(diameter_m=-1e-3), "Wire.diameter_m"),
+        (lambda: Wire(diameter_m=float("nan")), "Wire.diameter_m"),
+        (lambda: Wire(austenite_start_c=110.0, austenite_finish_c=110.0), "Wire.austenite_finish_c"),
+        (lambda: Wire(martensite_start_c=50.0, martensite_finish_c=60.0), "Wire.martensite_start_c"),
+        (lambda: Driver(supply_voltage_v=0.0), "Driver.supply_voltage_v"),
+        (lambda: Driver(supply_voltage_v=float("inf")), "Driver.supply_voltage_v"),
+        (lambda: Mechanism(moving_mass_kg=0.0), "Mechanism.moving_mass_kg"),
+        (lambda: Convection(h0_w_m2_k=-5.0), "Convection.h0_w_m2_k"),
+    ],
+)
+def test_invalid_parameters_raise_naming_the_parameter(build, name):
+    with pytest.raises(ValueError, match=name.replace(".", r"\.")):
+        ActuatorParams(**_group_for(build()))
+
+
+def _group_for(obj):
+    key = {Wire: "wire", Driver: "driver", Mechanism: "mechanism", Convection: "convection"}[type(obj)]
+    return {key: obj}
+
+
+def test_with_changes_rejects_unknown_fields():
+    with pytest.raises(ValueError, match="driver.voltage"):
+        standard().with_changes(**{"driver.voltage": 12.0})
+    changed = standard().with_changes(**{"driver.supply_voltage_v": 12.0, "wire.length_m": 0.3})
+    assert changed.driver.supply_voltage_v == 12.0 and changed.wire.length_m == 0.3
+
+
+def test_model_config_round_trips_through_json(tmp_path):
+    model = ModelConfig(preset("bench-0.5mm-ht")).with_effect("latent_heat", {"latent_heat_j_kg": 12000.0})
+    model = model.with_effect("sensor_lag", {"time_constant_s": 0.02}, form="second-order")
+    path = model.save(tmp_path / "m.json")
+    again = load_model(str(path))
+    assert again == model
+    assert math.isinf(again.actuator.driver.end_of_travel_m)
+    # The loaded model simulates identically.
+    a, b = Simulator(model), Simulator(again)
+    duty = np.r_[np.zeros(100), np.full(3000, 0.2)]
+    assert np.array_equal(a.run(duty)["position_m"], b.run(duty)["position_m"])
+
+
+def test_bad_model_files_give_clear_errors(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    with pytest.raises(ValueError, match="not valid JSON"):
+        load_model(str(bad))
+    wrong = tmp_path / "wrong.json"
+    wrong.write_text(json.dumps({"format": "sma-gym-model", "version": 1, "effects": {"warp_drive": {}}}))
+    with pytest.raises(ValueError, match="warp_drive"):
+        load_model(str(wrong))
+    out_of_bounds = tmp_path / "oob.json"
+    out_of_bounds.write_text(
+        json.dumps({"format": "sma-gym-model", "version": 1, "effects": {"latent_heat": {"latent_heat_j_kg": -1}}})
+    )
+    with pytest.raises(ValueError, match="latent_heat_j_kg"):
+        load_model(str(out_of_bounds))
+    with pytest.raises(ValueError, match="does not exist"):
+        load_model(str(tmp_path / "missing.json"))
+
+
+def test_every_effect_declares_units_bounds_and_an_off_value_inside_them():
+    assert len(EFFECTS) >= 8
+    for effect in EFFECTS.values():
+        assert effect.parameters
+        assert "default" in effect.forms
+        for p in effect.parameters:
+            assert p.unit
+            assert p.lower <= p.off <= p.upper
+            assert p.lower <= p.typical <= p.upper and p.typical != p.off
+
+
+def test_effect_values_outside_bounds_are_rejected():
+    with pytest.raises(ValueError, match=r"coulomb_friction\.force_n"):
+        EffectSet.of({"coulomb_friction": {"force_n": 99.0}})
+    with pytest.raises(ValueError, match="form"):
+        EffectSet.of({"sensor_lag": {"parameters": {"time_constant_s": 0.1}, "form": "third-order"}})

@@ -1,0 +1,314 @@
+"""Behaviour of the simulator core: physics, numerics, sensors, PWM and multiplexer."""
+
+import math
+
+import numpy as np
+import pytest
+
+from sma_gym import ModelConfig, Multiplexer, Simulator, preset
+from sma_gym.effects import EFFECTS
+from sma_gym.electrical.multiplexer import io_counts
+
+
+def run(model="standard", duty=None, seconds=5.0, **kwargs):
+    sim = Simulator(model, **kwargs)
+    if duty is None:
+        duty = np.ones(int(seconds * 1000))
+    rec = (
+        "position_m",
+        "temperature_c",
+        "martensite_fraction",
+        "stress_pa",
+        "position_measured_m",
+        "resistance_measured_ohm",
+        "resistance_ohm",
+        "power_w",
+        "spring_force_n",
+    )
+    return sim, sim.run(duty, record=rec)
+
+
+def test_an_unpowered_actuator_stays_exactly_at_rest():
+    sim, out = run(duty=np.zeros(2000))
+    assert np.all(out["position_m"] == 0.0)
+    assert np.all(out["temperature_c"] == 20.0)
+    assert np.all(out["martensite_fraction"] == 1.0)
+    # No pulse, no resistance reading.
+    assert np.all(np.isnan(out["resistance_measured_ohm"]))
+
+
+def test_full_power_contracts_to_the_end_of_travel_and_no_further():
+    p = preset("standard")
+    sim, out = run(seconds=6.0)
+    x = out["position_m"][:, 0]
+    assert x.max() == pytest.approx(p.driver.end_of_travel_m, abs=0.4e-3)
+    assert x.max() < p.wire.max_stroke_m
+    # The cut keeps the wire in a limit cycle around the end of travel, not overheating.
+    assert out["temperature_c"].max() < 130.0
+    assert x[-2000:].min() > p.driver.end_of_travel_m - 1.0e-3
+
+
+def test_duty_is_validated():
+    sim = Simulator()
+    for bad in (float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="duty"):
+            sim.step(bad)
+    with pytest.raises(ValueError, match="shape"):
+        sim.step(np.ones(3))
+    with pytest.raises(ValueError, match=r"duty\[5\]"):
+        sim.run(np.r_[np.zeros(5), np.nan])
+    # Out-of-range duties are clipped, not errors.
+    sim.step(7.0)
+    assert sim.duty_applied[0] == 1.0
+    sim.step(-3)
+    assert sim.duty_applied[0] == 0.0 and sim.power_w[0] == 0.0
+    sim.step(7.0)
+    assert float(sim.power_w[0]) == pytest.approx(10.0**2 / float(sim.resistance_ohm[0]), rel=0.01)
+
+
+def test_heating_below_austenite_start_lengthens_the_wire():
+    """Thermal expansion: x < 0 while the wire warms but has not started to transform."""
+    sim, out = run(duty=np.full(30000, 0.04))
+    assert out["martensite_fraction"][-1, 0] == 1.0
+    assert 50.0 < out["temperature_c"][-1, 0] < 75.0
+    expected = -8.8e-6 * (out["temperature_c"][-1, 0] - 20.0) * 0.273
+    assert out["position_m"][-1, 0] == pytest.approx(expected, rel=0.1)
+
+
+def test_more_preload_raises_the_transformation_temperature():
+    """Stress-shifted temperatures: more stress, later transformation."""
+    light = ModelConfig(preset("standard").with_changes(**{"mechanism.spring_preload_n": 1.0}))
+    heavy = ModelConfig(preset("standard").with_changes(**{"mechanism.spring_preload_n": 6.0}))
+    sim = Simulator([light, heavy])
+    out = sim.run(np.ones(2000), record=("temperature_c", "martensite_fraction"))
+    start = [out["temperature_c"][np.argmax(out["martensite_fraction"][:, j] < 0.99), j] for j in range(2)]
+    shift = (6.0 - 1.0) / preset("standard").wire.area_m2 / 10.3e6
+    assert start[1] - start[0] == pytest.approx(shift, rel=0.15)
+
+
+def effective_temperature(out, j=0):
+    """T - sigma / C: what drives the transformation (the stress shifts the temperatures)."""
+    return out["temperature_c"][:, j] - out["stress_pa"][:, j] / 10.3e6
+
+
+def test_reversal_mid_transformation_continues_from_the_current_fraction():
+    """Heat to about half transformed, then cool: xi never jumps, stays put while the
+    effective temperature falls through the 15 K hysteresis, then rises along the
+    cooling branch."""
+    duty = np.r_[np.ones(330), np.zeros(6000)]
+    _, out = run(duty=duty)
+    xi = out["martensite_fraction"][:, 0]
+    te = effective_temperature(out)
+    k = int(np.argmax(te))
+    assert 0.2 < xi[k] < 0.8
+    assert np.max(np.abs(np.diff(xi))) < 0.02  # no jump anywhere
+    band = (np.arange(len(te)) > k) & (te > te[k] - 14.0)
+    assert band.sum() > 100
+    assert np.all(np.abs(xi[band] - xi[k]) < 1e-9)
+    assert xi[-1] > xi[k] + 0.3
+
+
+def test_minor_loops_close_return_point_memory():
+    """Heat to a reversal point, cool a few kelvin, re-heat past it: on the way back the
+    state rejoins the branch exactly where it left it (no drift)."""
+    sim = Simulator()
+    rec = ("temperature_c", "stress_pa", "martensite_fraction")
+    first = sim.run(np.r_[np.ones(300), np.zeros(700)], record=rec)
+    te1 = effective_temperature(first)
+    k = int(np.argmax(te1))
+    te_rev, xi_rev = te1[k], first["martensite_fraction"][k, 0]
+    assert te1[-1] < te_rev - 5.0  # cooled, inside the hysteresis
+    assert first["martensite_fraction"][-1, 0] == pytest.approx(xi_rev, abs=1e-12)
+    second = sim.run(np.ones(300), record=rec)
+    te2 = effective_temperature(second)
+    xi2 = second["martensite_fraction"][:, 0]
+    assert np.all(xi2[te2 <= te_rev] == pytest.approx(xi_rev, abs=1e-9))
+    # Just past the reversal point it continues on the branch it left.
+    after = int(np.argmax(te2 > te_rev))
+    assert xi2[after] == pytest.approx(xi_rev, abs=0.02)
+    assert xi2[-1] < xi_rev - 0.1
+
+
+def test_pwm_ripple_does_not_make_xi_ratchet():
+    """Pulse-by-pulse heating at a holding duty follows the averaged model: the gap comes
+    only from the ripple (the hysteresis follows temperature peaks), shrinks as the ripple
+    shrinks, and settles to a constant instead of growing (no ratchet). The hold itself
+    settles slowly (~17 s): the falling resistance raises the power as the wire contracts."""
+    duty = np.full(120000, 0.06)
+    avg = run(duty=duty, pwm_mode="averaged")[1]["position_m"][:, 0]
+    gaps = {}
+    for f in (50.0, 500.0):
+        model = ModelConfig(preset("standard").with_changes(**{"driver.pwm_frequency_hz": f}))
+        res = run(model, duty=duty, pwm_mode="resolved")[1]["position_m"][:, 0]
+        gaps[f] = res - avg
+        tail = gaps[f][-20000:]
+        assert tail.max() - tail.min() < 0.005e-3
+    assert 0.0 < gaps[50.0][-1] < 0.3e-3
+    assert abs(gaps[500.0][-1]) < 0.2 * gaps[50.0][-1]
+
+
+def test_integration_converges_at_first_order_and_is_accurate_at_the_default_step():
+    rng = np.random.default_rng(1)
+    blocks = rng.uniform(0, 0.15, size=24)
+    blocks[::5] = 1.0
+    blocks[2::5] = 0.0
+    duty = np.repeat(blocks, 500)
+    x = {}
+    for h in (1e-3, 5e-4, 2.5e-4, 3e-5):
+        x[h] = Simulator(max_substep_s=h).run(duty, record=("position_m",))["position_m"][:, 0]
+    err = {h: np.max(np.abs(x[h] - x[3e-5])) for h in (1e-3, 5e-4, 2.5e-4)}
+    assert err[1e-3] < 0.15e-3  # 1.5 % of the stroke at the default step
+    assert err[1e-3] / err[5e-4] > 1.5 and err[5e-4] / err[2.5e-4] > 1.5  # converges
+
+
+def test_resolved_and_averaged_pwm_agree_apart_from_ripple():
+    duty = np.r_[np.ones(400), np.full(3000, 0.07), np.zeros(3000)]
+    a = run(duty=duty, pwm_mode="averaged", max_substep_s=1e-4)[1]
+    r = run(duty=duty, pwm_mode="resolved", max_substep_s=1e-4)[1]
+    assert np.max(np.abs(a["position_m"] - r["position_m"])) < 0.05e-3
+    assert np.max(np.abs(a["temperature_c"] - r["temperature_c"])) < 0.3
+
+
+def test_energy_is_accounted_for():
+    model = ModelConfig(preset("standard")).with_effect("latent_heat", {"latent_heat_j_kg": 24200.0})
+    duty = np.r_[np.ones(600), np.full(4000, 0.06), np.zeros(5000)]
+    sim = Simulator([preset("standard"), model, preset("supply-20v")], pwm_mode="resolved")
+    sim.run(duty)
+    e = sim.energy_balance()
+    assert np.all(e["electrical"] > 1.0)
+    # Thermal side: booked exactly.
+    assert np.all(np.abs(e["residual"]) < 1e-9 * e["electrical"])
+    # Mechanical side: the wire's work is kinetic + spring + dissipated, up to the
+    # backward-Euler step's numerical damping (stated tolerance: 0.1 % of the input).
+    assert np.all(np.abs(e["mechanical_residual"]) < 1e-3 * e["electrical"])
+    # Latent heat was absorbed while transforming on the second actuator only.
+    assert e["latent_released"][0] == 0.0 and e["latent_released"][1] != 0.0
+
+
+def test_same_seed_same_result_bit_for_bit_with_noise():
+    noisy = ModelConfig(
+        preset("standard").with_changes(**{"sensors.position_noise_std_m": 2e-5, "sensors.resistance_noise_std_ohm": 0.01})
+    )
+    duty = np.r_[np.ones(300), np.full(2000, 0.06)]
+    a = Simulator(noisy, seed=7).run(duty, record=("position_measured_m", "resistance_measured_ohm"))
+    b = Simulator(noisy, seed=7).run(duty, record=("position_measured_m", "resistance_measured_ohm"))
+    c = Simulator(noisy, seed=8).run(duty, record=("position_measured_m",))
+    assert np.array_equal(a["position_measured_m"], b["position_measured_m"])
+    assert np.array_equal(a["resistance_measured_ohm"], b["resistance_measured_ohm"], equal_nan=True)
+    assert not np.array_equal(a["position_measured_m"], c["position_measured_m"])
+    # The noise has the configured size.
+    clean = Simulator("standard").run(duty, record=("position_measured_m",))["position_measured_m"]
+    assert np.std(a["position_measured_m"] - clean) == pytest.approx(2e-5, rel=0.1)
+
+
+def test_every_effect_at_its_off_value_changes_nothing_bit_for_bit():
+    base = ModelConfig(preset("standard"))
+    off = base
+    for name, effect in EFFECTS.items():
+        off = off.with_effect(name, effect.off_values)
+    duty = np.r_[np.ones(500), np.full(3000, 0.065), np.zeros(3000), np.full(2000, 0.1)]
+    rec = ("position_m", "position_measured_m", "temperature_c", "resistance_measured_ohm")
+    for mode in ("averaged", "resolved"):
+        a = Simulator(base, pwm_mode=mode).run(duty, record=rec)
+        b = Simulator(off, pwm_mode=mode).run(duty, record=rec)
+        for key in rec:
+            assert np.array_equal(a[key], b[key], equal_nan=True), (mode, key)
+
+
+@pytest.mark.parametrize("name", sorted(EFFECTS))
+def test_every_effect_at_its_typical_value_changes_its_declared_outputs(name):
+    effect = EFFECTS[name]
+    model = ModelConfig(preset("standard")).with_effect(name, {p.name: p.typical for p in effect.parameters})
+    duty = np.r_[np.ones(400), np.full(3000, 0.065), np.zeros(3000), np.full(3000, 0.1)]
+    rec = ("position_measured_m", "resistance_measured_ohm")
+    a = Simulator("standard").run(duty, record=rec)
+    b = Simulator(model).run(duty, record=rec)
+    diff = np.nanmax(np.abs(a["position_measured_m"] - b["position_measured_m"]))
+    assert diff > 0.05e-3, f"{name} changed the position reading by only {diff * 1e3:.4f} mm"
+    if "resistance" in effect.outputs:
+        assert np.nanmax(np.abs(a["resistance_measured_ohm"] - b["resistance_measured_ohm"])) > 1e-3
+
+
+def test_coulomb_friction_makes_the_position_lag_and_stick():
+    model = ModelConfig(preset("standard")).with_effect("coulomb_friction", {"force_n": 1.0})
+    duty = np.r_[np.ones(350), np.zeros(4000)]
+    free = Simulator("standard").run(duty, record=("position_m",))["position_m"][:, 0]
+    stuck = Simulator(model).run(duty, record=("position_m",))["position_m"][:, 0]
+    # Friction opposes the motion both ways: behind while contracting, ahead while extending.
+    assert (free - stuck)[:400].max() > 0.3e-3
+    assert (stuck - free)[400:].max() > 0.3e-3
+    # And the mass truly sticks: stretches with exactly zero motion.
+    assert np.sum(np.diff(stuck[350:]) == 0.0) > 200
+    assert np.sum(np.diff(free[350:]) == 0.0) < 10
+
+
+def test_resistance_reading_needs_the_pulse_to_outlast_the_settling_time():
+    p = preset("standard").with_changes(**{"driver.pwm_frequency_hz": 1000.0})
+    for mode in ("averaged", "resolved"):
+        sim = Simulator(ModelConfig(p), n=3, pwm_mode=mode)
+        sim.run(np.tile([0.049, 0.05, 0.3], (5, 1)))
+        r = sim.resistance_measured_ohm
+        assert np.isnan(r[0]) and np.isnan(sim.current_measured_a[0])
+        assert r[1] == pytest.approx(sim.resistance_ohm[1], rel=1e-3)
+        assert sim.current_measured_a[2] == pytest.approx(10.0 / sim.resistance_ohm[2], rel=1e-3)
+
+
+def test_position_is_sampled_at_the_end_of_each_pwm_period():
+    """With a 4 ms PWM period and 1 ms control steps, the reading changes every 4th step."""
+    p = preset("standard").with_changes(**{"driver.pwm_frequency_hz": 250.0})
+    sim = Simulator(ModelConfig(p), pwm_mode="resolved")
+    out = sim.run(np.ones(800), record=("position_measured_m", "position_m"))
+    reading = out["position_measured_m"][400:, 0]
+    changes = np.flatnonzero(np.diff(reading) != 0.0)
+    assert len(changes) > 50
+    assert np.all(np.diff(changes) % 4 == 0)
+
+
+def test_multiplexer_caps_duty_and_gives_each_actuator_its_own_slot():
+    mux = Multiplexer(4, cycling_frequency_hz=1000.0)
+    sim = Simulator("standard", n=4, multiplexer=mux, pwm_mode="resolved", max_substep_s=1e-5)
+    # Actuator 2 asks for far more than 1/4: it gets 1/4 of the cycle at most.
+    sim.step(np.array([0.0, 0.1, 1.0, 0.25]))
+    power = sim.power_w
+    full = 100.0 / sim.resistance_ohm
+    assert power[0] == 0.0
+    assert power[1] == pytest.approx(0.1 * full[1], rel=1e-3)
+    assert power[2] == pytest.approx(0.25 * full[2], rel=1e-3)
+    assert power[3] == pytest.approx(0.25 * full[3], rel=1e-3)
+    # Within one cycle the pulses do not overlap: actuator j conducts only in [j/4, (j+1)/4).
+    probe = Simulator("standard", n=4, multiplexer=mux, pwm_mode="resolved", control_period_s=0.25e-3)
+    energy = []
+    for k in range(4):
+        probe.step(np.full(4, 0.25))
+        energy.append(probe.electrical_energy_j.copy())
+    delta = np.diff(np.vstack([np.zeros(4), energy]), axis=0)
+    assert np.all((delta > 0) == np.eye(4, dtype=bool))
+    assert io_counts(16) == {
+        "analog_inputs_without": 16,
+        "analog_inputs_with": 1,
+        "digital_outputs_without": 16,
+        "digital_outputs_with": 5,
+    }
+
+
+def test_supply_sag_lowers_the_wire_voltage_reading():
+    model = ModelConfig(preset("standard")).with_effect("supply_sag", {"series_resistance_ohm": 1.0})
+    sim = Simulator(model)
+    sim.run(np.full(10, 0.5))
+    r = float(sim.resistance_ohm[0])
+    assert sim.voltage_measured_v[0] == pytest.approx(10.0 * r / (r + 1.0), rel=1e-6)
+
+
+def test_bad_constructor_arguments_are_named():
+    with pytest.raises(ValueError, match="pwm_mode"):
+        Simulator(pwm_mode="exact")
+    with pytest.raises(ValueError, match="n = 0"):
+        Simulator(n=0)
+    with pytest.raises(ValueError, match="multiplexer.n_actuators"):
+        Simulator(n=3, multiplexer=Multiplexer(4))
+    with pytest.raises(ValueError, match="control_period_s"):
+        Simulator(control_period_s=-1.0)
+    with pytest.raises(ValueError, match="record"):
+        Simulator().run(np.zeros(3), record=("warp",))
+    with pytest.raises(ValueError, match="temperature_c"):
+        Simulator().reset(temperature_c=200.0)
