@@ -33,10 +33,10 @@ from sma_gym.physics.thermal import CONVECTION_LAW, CONVECTION_POWER
 
 PWM_MODES = ("averaged", "resolved")
 
-MAX_TEMPERATURE_STEP_K = 0.5
-"""Largest temperature rise per integration sub-step at full power (accuracy bound)."""
+DEFAULT_MAX_TEMPERATURE_STEP_K = 0.5
+"""Largest temperature change per integration sub-step (accuracy bound, see core.kernel)."""
 
-DEFAULT_MAX_SUBSTEP_S = 1e-3
+DEFAULT_MAX_SUBSTEP_S = 10e-3
 
 _NO_NOISE = np.zeros((0, 4, 0))
 _NO_RECORD = np.zeros((0, 0, 0))
@@ -51,6 +51,7 @@ def pack_params(
     phase: float = 0.0,
     duty_max: float = 1.0,
     max_substep_s: float = DEFAULT_MAX_SUBSTEP_S,
+    max_temperature_step_k: float = DEFAULT_MAX_TEMPERATURE_STEP_K,
 ) -> np.ndarray:
     """Turn a model configuration into one column of the core's parameter matrix."""
     require_choice("pwm_mode", pwm_mode, PWM_MODES)
@@ -143,12 +144,8 @@ def pack_params(
     col[L.P_I_NOISE] = s.current_noise_std_a
     col[L.P_V_NOISE] = s.voltage_noise_std_v
 
-    # Accuracy bound on the sub-step: full power may raise T by at most 0.5 K per step.
-    # The smallest resistance the wire can have: lower resistivity, fully contracted.
-    rho_min = min(w.resistivity_martensite_ohm_m, w.resistivity_austenite_ohm_m)
-    r_min = 0.9 * rho_min * (1.0 - w.max_transformation_strain) ** 2 * w.length_m / w.area_m2
-    p_max = d.supply_voltage_v**2 / r_min
-    col[L.P_H_MAX] = min(max_substep_s, MAX_TEMPERATURE_STEP_K * w.heat_capacity_j_k / p_max)
+    col[L.P_H_MAX] = max_substep_s
+    col[L.P_DT_MAX] = max_temperature_step_k
     return col
 
 
@@ -176,8 +173,9 @@ class Simulator:
         this lets experiments batch many banks into one run.
     seed, rng:
         Randomness for sensor noise (only drawn when a noise level is non-zero).
-    max_substep_s:
-        Upper bound on the integration sub-step (see :mod:`sma_gym.core.kernel`).
+    max_substep_s, max_temperature_step_k:
+        Accuracy bounds of the integration sub-step (see :mod:`sma_gym.core.kernel`):
+        10 ms and 0.5 K by default.
     """
 
     def __init__(
@@ -192,10 +190,12 @@ class Simulator:
         seed: int | None = None,
         rng: np.random.Generator | None = None,
         max_substep_s: float = DEFAULT_MAX_SUBSTEP_S,
+        max_temperature_step_k: float = DEFAULT_MAX_TEMPERATURE_STEP_K,
     ) -> None:
         require_choice("pwm_mode", pwm_mode, PWM_MODES)
         self.control_period_s = require_range("control_period_s", control_period_s, 1e-6, 10.0, "s")
         require_range("max_substep_s", max_substep_s, 1e-7, 0.1, "s")
+        require_range("max_temperature_step_k", max_temperature_step_k, 1e-4, 10.0, "K")
         if isinstance(model, (list, tuple)):
             models = [load_model(m) for m in model]
             if n is not None and n != len(models):
@@ -229,6 +229,7 @@ class Simulator:
                 require_range(f"pwm_slots[{j}].duty_max", duty_max, 0.0, 1.0, lower_open=True)
         self.rng = rng if rng is not None else np.random.default_rng(seed)
         self.max_substep_s = max_substep_s
+        self.max_temperature_step_k = max_temperature_step_k
 
         columns = []
         cache: dict[int, np.ndarray] = {}
@@ -236,12 +237,20 @@ class Simulator:
             if pwm_slots is not None:
                 period, phase, duty_max = pwm_slots[index]
                 col = pack_params(
-                    m, pwm_mode=pwm_mode, pwm_period_s=period, phase=phase, duty_max=duty_max, max_substep_s=max_substep_s
+                    m,
+                    pwm_mode=pwm_mode,
+                    pwm_period_s=period,
+                    phase=phase,
+                    duty_max=duty_max,
+                    max_substep_s=max_substep_s,
+                    max_temperature_step_k=max_temperature_step_k,
                 )
             else:
                 key = id(m)
                 if key not in cache:
-                    cache[key] = pack_params(m, pwm_mode=pwm_mode, max_substep_s=max_substep_s)
+                    cache[key] = pack_params(
+                        m, pwm_mode=pwm_mode, max_substep_s=max_substep_s, max_temperature_step_k=max_temperature_step_k
+                    )
                 col = cache[key]
             columns.append(col)
         self.params = np.ascontiguousarray(np.stack(columns, axis=0))

@@ -19,11 +19,13 @@ Integration scheme (one sub-step of length h)
    bookkeeping), sensors and the end-of-travel cut updated.
 
 Sub-step length. Nothing here needs a small step for stability, so h is chosen for
-accuracy: at most ``ActuatorParams``-independent 1 ms and small enough that full power
-raises the temperature by at most 0.5 K per sub-step (about 1/70 of the transformation
-range): ``h_max = min(1 ms, 0.5 K * m c_p / P_max)``, computed once when parameters are
-packed. PWM-resolved mode additionally cuts sub-steps at every switching edge. The test
-suite checks that halving h changes the trajectories by a small, stated amount.
+accuracy, per actuator and per sub-step: the net heat flow (electrical in, convection out)
+may change the temperature by at most ``DT_MAX`` (0.5 K, about 1/70 of the transformation
+range; the position moves by at most ~0.25 mm), and h never exceeds ``H_MAX`` (10 ms by
+default). A wire heating at full power takes ~2 ms steps, a holding or cooling wire one
+step per control period. PWM-resolved mode additionally cuts sub-steps at every switching
+edge. The test suite checks that refining both bounds converges at first order and that
+the default is within a stated error of a fine reference.
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ from sma_gym.core.layout import (
     P_D_A,
     P_D_M,
     P_DAMPING,
+    P_DT_MAX,
     P_DUTY_MAX,
     P_EOT,
     P_EOT_RELEASE,
@@ -139,7 +142,7 @@ MIN_SUBSTEP_S = 1e-9
 """Slivers shorter than this (rounding at PWM edges) advance the clock without a step."""
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _resistance(state, params, i, x, xi, t_c):
     return wire_resistance(
         x, xi, t_c, params[i, P_RHO_M], params[i, P_RHO_A], params[i, P_TCR_M], params[i, P_TCR_A],
@@ -147,7 +150,7 @@ def _resistance(state, params, i, x, xi, t_c):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _on_current(state, params, i):
     return on_current(
         params[i, P_V_SUPPLY], state[i, S_R_TRUE], params[i, P_R_SERIES], int(params[i, P_SAG_FORM]),
@@ -155,7 +158,7 @@ def _on_current(state, params, i):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def sensor_output(state, params, i):
     """Current output of the position-sensor chain (before sampling, noise, quantisation)."""
     if params[i, P_TAU_LAG] > 0.0:
@@ -165,7 +168,7 @@ def sensor_output(state, params, i):
     return state[i, S_FILTER]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _substep(state, params, i, h, energy_j, offsets, weights, nodes0, nodes1, n_nodes):
     x0 = state[i, S_X]
     v0 = state[i, S_V]
@@ -289,7 +292,7 @@ def _substep(state, params, i, h, energy_j, offsets, weights, nodes0, nodes1, n_
         state[i, S_EOT_CUT] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _take_readings(state, params, i, on_time, t_settle, n_pos, n_r, n_i, n_v):
     """Sample position (always) and V, I, R (only if this pulse lasts past the settling)."""
     value = sensor_output(state, params, i) + params[i, P_POS_NOISE] * n_pos
@@ -307,7 +310,7 @@ def _take_readings(state, params, i, on_time, t_settle, n_pos, n_r, n_i, n_v):
         state[i, S_R_MEAS] = np.nan
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _control_step(state, params, i, duty_cmd, dt, n_pos, n_r, n_i, n_v, offsets, weights, nodes0, nodes1, n_nodes):
     duty = duty_cmd
     if duty < 0.0:
@@ -324,20 +327,16 @@ def _control_step(state, params, i, duty_cmd, dt, n_pos, n_r, n_i, n_v, offsets,
     h_max = params[i, P_H_MAX]
 
     resolved = params[i, P_RESOLVED] != 0.0
-    # PWM-averaged: equal sub-steps, each with the mean energy of the pulses it spans.
-    n_sub = int(math.ceil(dt / h_max - 1e-9))
-    if n_sub < 1:
-        n_sub = 1
-    h_avg = dt / n_sub
+    dt_max_k = params[i, P_DT_MAX]
+    heat_cap = params[i, P_HEAT_CAP]
+    # PWM-averaged: each sub-step gets the mean energy of the pulses it spans.
     mean_fraction = pulse_integral(0.0, duty * period, tau_rise, rise_form) / period
-    # PWM-resolved: sub-steps cut at every switching edge.
+    # PWM-resolved: sub-steps are also cut at every switching edge.
     edge_tol = 1e-12 * period
     remaining = dt
-    k_sub = 0
-    while True:
+    while remaining > MIN_SUBSTEP_S:
+        switched_on = False
         if resolved:
-            if remaining <= MIN_SUBSTEP_S:
-                break
             tau = state[i, S_PWM_TAU]
             if tau >= period - edge_tol:
                 # A new PWM period starts: sample the sensors at the end of the old one and
@@ -352,31 +351,45 @@ def _control_step(state, params, i, duty_cmd, dt, n_pos, n_r, n_i, n_v, offsets,
             switched_on = tau < on_time - edge_tol and state[i, S_EOT_CUT] < 0.5
             edge = on_time if switched_on else period
             seg = edge - tau
-            if seg > remaining:
-                seg = remaining
-            if seg > h_max:
-                seg = h_max
             if seg < MIN_SUBSTEP_S:
                 # Rounding sliver just before an edge: move the clock past it, no integration.
                 state[i, S_PWM_TAU] = edge
                 remaining -= edge - tau
                 continue
-            energy = 0.0
+            power = 0.0
             if switched_on:
                 current = _on_current(state, params, i)
-                energy = current * current * state[i, S_R_TRUE] * pulse_integral(tau, tau + seg, tau_rise, rise_form)
-            state[i, S_PWM_TAU] = tau + seg
+                power = current * current * state[i, S_R_TRUE]
         else:
-            if k_sub >= n_sub:
-                break
-            seg = h_avg
-            energy = 0.0
+            seg = remaining
+            power = 0.0
             if state[i, S_EOT_CUT] < 0.5 and mean_fraction > 0.0:
                 current = _on_current(state, params, i)
-                energy = current * current * state[i, S_R_TRUE] * mean_fraction * seg
+                power = current * current * state[i, S_R_TRUE] * mean_fraction
+        if seg > remaining:
+            seg = remaining
+        if seg > h_max:
+            seg = h_max
+        # Accuracy: the temperature may change by at most dt_max_k per sub-step.
+        t_now = state[i, S_T]
+        h_conv = convection_coefficient(
+            t_now, params[i, P_H0], params[i, P_H1], params[i, P_H2], params[i, P_T_AMB],
+            int(params[i, P_CONV_FORM]), params[i, P_CONV_POWER_SCALE],
+        )
+        rate = abs(power - h_conv * params[i, P_SURFACE] * (t_now - params[i, P_T_AMB])) / heat_cap
+        if rate * seg > dt_max_k:
+            seg = dt_max_k / rate
+        if not resolved:
+            # Split what is left evenly rather than leaving a sliver at the end.
+            pieces = math.ceil(remaining / seg - 1e-9)
+            seg = remaining / pieces
+        energy = power * seg
+        if resolved:
+            if switched_on:
+                energy = power * pulse_integral(tau, tau + seg, tau_rise, rise_form)
+            state[i, S_PWM_TAU] = tau + seg
         _substep(state, params, i, seg, energy, offsets, weights, nodes0, nodes1, n_nodes)
         remaining -= seg
-        k_sub += 1
     if resolved:
         if remaining > 0.0:
             state[i, S_PWM_TAU] += remaining  # keep the PWM clock exact
@@ -387,7 +400,7 @@ def _control_step(state, params, i, duty_cmd, dt, n_pos, n_r, n_i, n_v, offsets,
     state[i, S_TIME] += dt
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def advance(state, params, duty, dt, noise, record, record_rows):
     """Advance every actuator (column) by ``duty.shape[0]`` control steps of ``dt`` seconds.
 

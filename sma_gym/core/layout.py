@@ -152,6 +152,7 @@ P_I_NOISE = 67  # [A]
 P_V_NOISE = 68  # [V]
 # integrator
 P_H_MAX = 69  # largest integration sub-step [s]
-N_PARAMS = 70
+P_DT_MAX = 70  # largest temperature change per sub-step [K]
+N_PARAMS = 71
 
 PARAM_ROWS = {name[2:].lower(): row for name, row in list(globals().items()) if name.startswith("P_")}

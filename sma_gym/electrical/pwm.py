@@ -32,7 +32,7 @@ SAG_QUADRATIC = 1
 equal to the resistor's at the reference current."""
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def pulse_integral(a, b, tau, form):
     """Integral over [a, b] (time since switch-on, s) of the normalised power (0..1)."""
     if b <= a:
@@ -49,13 +49,14 @@ def pulse_integral(a, b, tau, form):
     return (b - a) + 2.0 * tau * (eb - ea) - 0.5 * tau * (eb * eb - ea * ea)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def on_current(supply_v, wire_ohm, series_ohm, form, i_ref):
     """Steady current through the wire while the switch is on [A]."""
     if series_ohm <= 0.0:
         return supply_v / wire_ohm
     if form == SAG_QUADRATIC:
-        # supply_v = I R + R_s I^2 / i_ref
+        # supply_v = I R + R_s I^2 / i_ref, solved in the form without cancellation (the
+        # textbook root loses every digit when R_s is tiny).
         a = series_ohm / i_ref
-        return (-wire_ohm + math.sqrt(wire_ohm * wire_ohm + 4.0 * a * supply_v)) / (2.0 * a)
+        return 2.0 * supply_v / (wire_ohm + math.sqrt(wire_ohm * wire_ohm + 4.0 * a * supply_v))
     return supply_v / (wire_ohm + series_ohm)

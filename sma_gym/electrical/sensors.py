@@ -28,7 +28,7 @@ DIRECTION_THRESHOLD_M_S = 1e-4
 """Speed above which a new direction of motion is registered (Abbe offset switching)."""
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def first_order(y, u, h, tau):
     """Exact step of y' = (u - y) / tau over h with u held (tau = 0: y = u)."""
     if tau <= 0.0:
@@ -36,7 +36,7 @@ def first_order(y, u, h, tau):
     return u + (y - u) * math.exp(-h / tau)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def abbe_reading_offset(offset_m, direction, travel_m, form):
     """Offset added to the true position by the Abbe error [m]."""
     if offset_m == 0.0:
@@ -47,7 +47,7 @@ def abbe_reading_offset(offset_m, direction, travel_m, form):
     return 0.5 * direction * offset_m * scale
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def quantise(value, step):
     if step <= 0.0:
         return value

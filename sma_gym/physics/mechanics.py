@@ -47,14 +47,14 @@ _STRIBECK_STATIC_RATIO = 1.5
 _STRIBECK_VELOCITY = 2e-3
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def static_friction(f_c, form):
     if form == FRICTION_STRIBECK:
         return _STRIBECK_STATIC_RATIO * f_c
     return f_c
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def kinetic_friction(f_c, velocity, form):
     if form == FRICTION_STRIBECK:
         r = velocity / _STRIBECK_VELOCITY
@@ -62,7 +62,7 @@ def kinetic_friction(f_c, velocity, form):
     return f_c
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _evaluate(
     z,
     stick,
@@ -145,7 +145,7 @@ def _evaluate(
     return big_z, dbig_z, x1, sigma1, t1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def solve_step(
     stick,
     x0,

@@ -16,7 +16,7 @@ from __future__ import annotations
 from numba import njit
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def wire_resistance(x, xi, t_c, rho_m, rho_a, tcr_m, tcr_a, t_ref, length, area):
     """R [ohm] of a wire of rest length ``length`` and area ``area`` contracted by ``x``."""
     dt = t_c - t_ref

@@ -26,7 +26,7 @@ CONVECTION_POWER = 1
 power law in the excess temperature, scale * ((T - T_amb) / 80 K) ** 0.25."""
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def convection_coefficient(t_c, h0, h1, h2, t_amb, form, power_scale):
     """h(T) [W/(m^2 K)], never negative."""
     h = h0 + h1 * (t_c - t_amb) + h2 * t_c * t_c
@@ -40,7 +40,7 @@ def convection_coefficient(t_c, h0, h1, h2, t_amb, form, power_scale):
     return h
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def exponential_euler(t0, power_w, conductance_w_k, heat_capacity_j_k, t_amb, h):
     """Temperature after ``h`` seconds of m c_p T' = P - G (T - T_amb), G frozen at T0."""
     if conductance_w_k <= 0.0:

@@ -40,7 +40,7 @@ import math
 from numba import njit
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def cosine_fraction(u: float) -> float:
     """F(u) = (1 + cos(pi u)) / 2 for u in [0, 1]; 1 below, 0 above."""
     if u <= 0.0:
@@ -50,7 +50,7 @@ def cosine_fraction(u: float) -> float:
     return 0.5 * (1.0 + math.cos(math.pi * u))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def cosine_fraction_slope(u: float) -> float:
     """dF/du (zero outside (0, 1))."""
     if u <= 0.0 or u >= 1.0:
