@@ -8,9 +8,14 @@ from sma_gym.simulator import Simulator
 
 __version__ = "0.1.0"
 
+from sma_gym.envs import ENV_IDS, register_envs  # noqa: E402
+
+register_envs()
+
 __all__ = [
     "ActuatorParams",
     "EFFECTS",
+    "ENV_IDS",
     "EffectSet",
     "EffectSetting",
     "ModelConfig",

@@ -207,7 +207,7 @@ class Simulator:
             if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
                 raise ValueError(f"n = {n!r}: expected an integer >= 1")
             models = [load_model(model)] * int(count)
-        self.models: list[ModelConfig] = models
+        self.models: list[ModelConfig] = list(models)
         self.n = len(models)
         self.pwm_mode = pwm_mode
         self.multiplexer = multiplexer
@@ -219,8 +219,10 @@ class Simulator:
             raise ValueError("give either multiplexer or pwm_slots, not both")
         if multiplexer is not None:
             pwm_slots = [(multiplexer.period_s, multiplexer.phase(j), multiplexer.duty_max) for j in range(self.n)]
+        self._slots = None
         if pwm_slots is not None:
             pwm_slots = [tuple(map(float, slot)) for slot in pwm_slots]
+            self._slots = pwm_slots
             if len(pwm_slots) != self.n:
                 raise ValueError(f"pwm_slots has {len(pwm_slots)} entries: expected {self.n} (one per actuator)")
             for j, (period, phase, duty_max) in enumerate(pwm_slots):
@@ -265,12 +267,15 @@ class Simulator:
     # Reset and stepping
     # ------------------------------------------------------------------------------------
     def reset(self, mask: np.ndarray | None = None, *, temperature_c: float | np.ndarray | None = None) -> None:
-        """Put actuators (all, or those where ``mask`` is True) at rest: cold, extended.
+        """Put actuators (all, those where a boolean ``mask`` is True, or those at the
+        indices in an integer ``mask``) at rest: cold, extended.
 
         ``temperature_c`` starts them at another temperature, still fully martensitic
         (must be below the stress-shifted A_s, i.e. a state the wire can rest in).
         """
-        cols = slice(None) if mask is None else np.asarray(mask, dtype=bool)
+        cols = slice(None) if mask is None else np.asarray(mask)
+        if mask is not None and cols.dtype != bool and not np.issubdtype(cols.dtype, np.integer):
+            raise ValueError(f"mask has dtype {cols.dtype}: expected booleans or integer indices")
         p = self.params
         s = self.state
         t_amb = p[cols, L.P_T_AMB]
@@ -311,6 +316,31 @@ class Simulator:
         )
         s[cols, L.S_FORCE] = p[cols, L.P_F_PRE] + p[cols, L.P_K_SPRING] * x0
 
+    def set_model(self, index: int, model: ModelSpec) -> None:
+        """Give actuator ``index`` another model (e.g. a randomised condition at an env reset).
+
+        Its PWM slot, mode and accuracy bounds stay; call :meth:`reset` for it afterwards.
+        """
+        m = load_model(model)
+        if self._slots is not None:
+            period, phase, duty_max = self._slots[index]
+            col = pack_params(
+                m, pwm_mode=self.pwm_mode, pwm_period_s=period, phase=phase, duty_max=duty_max,
+                max_substep_s=self.max_substep_s, max_temperature_step_k=self.max_temperature_step_k,
+            )
+        else:
+            col = pack_params(
+                m, pwm_mode=self.pwm_mode, max_substep_s=self.max_substep_s, max_temperature_step_k=self.max_temperature_step_k
+            )
+        self.models[index] = m
+        self.params[index] = col
+        self._has_noise = bool(np.any(self.params[:, [L.P_POS_NOISE, L.P_R_NOISE, L.P_I_NOISE, L.P_V_NOISE]] > 0.0))
+
+    @property
+    def has_noise(self) -> bool:
+        """True if any actuator's sensors are noisy (then each step draws from ``rng``)."""
+        return self._has_noise
+
     def _rest_position(self, cols, t0: np.ndarray) -> np.ndarray:
         """Static position of a martensitic wire at temperature t0 (thermal expansion only)."""
         p = self.params
@@ -344,9 +374,15 @@ class Simulator:
                 raise ValueError(f"duty = {duty!r}: expected finite values in [0, 1]")
         self.step_unchecked(self._duty_buffer)
 
-    def step_unchecked(self, duty_2d: np.ndarray) -> None:
-        """Fast path for the envs: ``duty_2d`` is a finite float64 array of shape (1, n)."""
-        noise = self.rng.standard_normal((1, 4, self.n)) if self._has_noise else _NO_NOISE
+    def step_unchecked(self, duty_2d: np.ndarray, noise: np.ndarray | None = None) -> None:
+        """Fast path for the envs: ``duty_2d`` is a finite float64 array of shape (1, n).
+
+        ``noise`` (shape (1, 4, n), standard normals for the position, resistance, current
+        and voltage readings) replaces the draw from ``rng``; the vector env uses it to draw
+        each sub-env's noise from that sub-env's own generator.
+        """
+        if noise is None:
+            noise = self.rng.standard_normal((1, 4, self.n)) if self._has_noise else _NO_NOISE
         advance(self.state, self.params, duty_2d, self.control_period_s, noise, _NO_RECORD, _NO_ROWS)
 
     def run(

@@ -1,0 +1,127 @@
+"""Randomised operating conditions for the robustness env (report chapter 7).
+
+Declarative: each condition is either a fixed value or a range to draw from at reset;
+:meth:`Conditions.draw` draws them, in a fixed order, from the env's ``np_random`` and
+returns the model to simulate plus a plain dict of what was drawn (it goes into ``info``).
+
+The report's chapter 7 conditions are the supply (5 to 15 V, §7.2), natural or forced
+convection (§7.1) and the wire diameter (0.2 to 0.5 mm, §7.3). On top, a parameter spread
+stands for the unit-to-unit and model uncertainty a controller must survive: convection
++-15 %, transformation temperatures +-3 K, recoverable strain +-5 %, preload +-20 %,
+resistivity +-5 % (``spread`` scales all of these; 0 switches them off).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any, Sequence
+
+import numpy as np
+
+from sma_gym._validation import require_range
+from sma_gym.model import ModelConfig
+from sma_gym.params import FORCED_CONVECTION_FACTOR
+
+CONVECTIONS = ("natural", "forced")
+
+
+def _as_range(name: str, value: Any, lower: float, upper: float, unit: str) -> tuple[float, float]:
+    if isinstance(value, (tuple, list)):
+        if len(value) != 2:
+            raise ValueError(f"{name} = {value!r}: expected a number or a (low, high) pair in [{lower:g}, {upper:g}] {unit}")
+        lo = require_range(name, value[0], lower, upper, unit)
+        hi = require_range(name, value[1], lower, upper, unit)
+        if hi < lo:
+            raise ValueError(f"{name} = {value!r}: expected low <= high")
+        return lo, hi
+    v = require_range(name, value, lower, upper, unit)
+    return v, v
+
+
+@dataclass(frozen=True)
+class Conditions:
+    """Ranges (or fixed values) of the randomised conditions."""
+
+    supply_voltage_v: tuple[float, float] = (5.0, 15.0)
+    convection: tuple[str, ...] = CONVECTIONS
+    wire_diameter_m: tuple[float, float] = (0.2e-3, 0.5e-3)
+    spread: float = 1.0
+
+    @classmethod
+    def from_kwargs(
+        cls,
+        supply_voltage_v: Any = (5.0, 15.0),
+        convection: Any = "random",
+        wire_diameter_m: Any = (0.2e-3, 0.5e-3),
+        spread: Any = 1.0,
+    ) -> "Conditions":
+        """Validate env kwargs: numbers fix a condition, (low, high) pairs randomise it."""
+        if convection == "random":
+            conv: tuple[str, ...] = CONVECTIONS
+        elif convection in CONVECTIONS:
+            conv = (convection,)
+        else:
+            raise ValueError(f"convection = {convection!r}: expected 'natural', 'forced' or 'random'")
+        return cls(
+            supply_voltage_v=_as_range("supply_voltage_v", supply_voltage_v, 1.0, 30.0, "V"),
+            convection=conv,
+            wire_diameter_m=_as_range("wire_diameter_m", wire_diameter_m, 0.05e-3, 1.0e-3, "m"),
+            spread=require_range("spread", spread, 0.0, 3.0),
+        )
+
+    def draw(self, base: ModelConfig, rng: np.random.Generator) -> tuple[ModelConfig, dict[str, Any]]:
+        """Draw one condition (fixed order of draws: same seed, same condition)."""
+        u = rng.uniform
+        voltage = float(u(*self.supply_voltage_v))
+        convection = self.convection[int(rng.integers(len(self.convection)))]
+        diameter = float(u(*self.wire_diameter_m))
+        s = self.spread
+        h_scale = float(np.exp(u(-0.15, 0.15) * s))
+        shift = float(u(-3.0, 3.0) * s)
+        eps_scale = float(1.0 + u(-0.05, 0.05) * s)
+        preload_scale = float(1.0 + u(-0.2, 0.2) * s)
+        rho_scale = float(1.0 + u(-0.05, 0.05) * s)
+        p = base.actuator
+        w, c = p.wire, p.convection
+        factor = h_scale * (FORCED_CONVECTION_FACTOR if convection == "forced" else 1.0)
+        actuator = replace(
+            p,
+            wire=replace(
+                w,
+                diameter_m=diameter,
+                austenite_start_c=w.austenite_start_c + shift,
+                austenite_finish_c=w.austenite_finish_c + shift,
+                martensite_start_c=w.martensite_start_c + shift,
+                martensite_finish_c=w.martensite_finish_c + shift,
+                max_transformation_strain=w.max_transformation_strain * eps_scale,
+                resistivity_martensite_ohm_m=w.resistivity_martensite_ohm_m * rho_scale,
+                resistivity_austenite_ohm_m=w.resistivity_austenite_ohm_m * rho_scale,
+            ),
+            convection=replace(c, h0_w_m2_k=c.h0_w_m2_k * factor, h2_w_m2_k3=c.h2_w_m2_k3 * factor),
+            driver=replace(p.driver, supply_voltage_v=voltage),
+            mechanism=replace(p.mechanism, spring_preload_n=p.mechanism.spring_preload_n * preload_scale),
+            name=f"robust({voltage:.1f} V, {convection}, {diameter * 1e3:.2f} mm)",
+        )
+        condition = {
+            "supply_voltage_v": voltage,
+            "convection": convection,
+            "wire_diameter_m": diameter,
+            "convection_scale": h_scale,
+            "transformation_shift_k": shift,
+            "strain_scale": eps_scale,
+            "preload_scale": preload_scale,
+            "resistivity_scale": rho_scale,
+        }
+        return replace(base, actuator=actuator), condition
+
+
+def chapter7_conditions() -> Sequence[tuple[str, dict[str, Any]]]:
+    """The report's chapter-7 test conditions as robustness-env kwargs (no spread)."""
+    return (
+        ("standard", {"supply_voltage_v": 10.0, "convection": "natural", "wire_diameter_m": 0.3e-3, "spread": 0.0}),
+        ("forced convection", {"supply_voltage_v": 10.0, "convection": "forced", "wire_diameter_m": 0.3e-3, "spread": 0.0}),
+        ("5 V", {"supply_voltage_v": 5.0, "convection": "natural", "wire_diameter_m": 0.3e-3, "spread": 0.0}),
+        ("15 V", {"supply_voltage_v": 15.0, "convection": "natural", "wire_diameter_m": 0.3e-3, "spread": 0.0}),
+        ("0.2 mm wire", {"supply_voltage_v": 10.0, "convection": "natural", "wire_diameter_m": 0.2e-3, "spread": 0.0}),
+        ("0.5 mm wire", {"supply_voltage_v": 10.0, "convection": "natural", "wire_diameter_m": 0.5e-3, "spread": 0.0}),
+    )

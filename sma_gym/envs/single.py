@@ -1,0 +1,311 @@
+"""Single-actuator environments: position tracking, self-sensing, robustness.
+
+All three are one class, :class:`SMAEnv`, configured by a :class:`Variant`:
+
+* ``SMATracking-v0``: sees the measured position, the resistance, the reference (with rate
+  and preview) and its last duty. Duty range [0, 1].
+* ``SMASelfSensing-v0``: the same task without a position sensor: it sees resistance,
+  current and voltage (V/I readings) but not the position; the duty is kept in [0.05, 0.8]
+  so that every PWM pulse outlasts the 50 us settling and R can always be read (report
+  §4.1, T9) — except while the driver's end-of-travel cut holds the power off, when no
+  current flows (the ``resistance_valid`` feature is then 0 and the last reading is held).
+  The reward still uses the true position.
+* ``SMARobust-v0``: the tracking task under the report's chapter-7 conditions (supply 5-15 V,
+  natural or forced convection, 0.2-0.5 mm wire) plus parameter spread, drawn at every reset
+  from ``self.np_random`` and reported in ``info["condition"]``; kwargs fix any of them.
+
+Action: ``Box(-1, 1, (1,), float32)``, mapped affinely onto the allowed duty range,
+``duty = lo + (a + 1) / 2 * (hi - lo)``; values outside [-1, 1] are clipped, NaN or inf raise
+``ValueError``. Each step advances the simulator by ``control_period_s`` (default 10 ms; the
+report's controllers run at 1 kHz, pass ``control_period_s=0.001`` for that).
+
+Observation, reward: see :mod:`sma_gym.envs.task`. ``terminated`` when the wire exceeds
+``overheat_limit_c`` (150 degC by default: Flexinol's trained memory degrades when held much
+hotter); episodes are truncated by ``max_episode_steps`` (registered: 1000 steps = 10 s).
+
+``info``: the true state (``position_m``, ``temperature_c``, ``martensite_fraction``,
+``stress_pa``), ``reference_m``, ``power_w`` and ``electrical_energy_j`` (since reset),
+``duty``, ``resistance_valid``, ``time_s``; robustness: ``condition``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from sma_gym._validation import require_choice, require_range
+from sma_gym.core import layout as L
+from sma_gym.envs import references as refs
+from sma_gym.envs import task
+from sma_gym.envs.conditions import Conditions
+from sma_gym.envs.render import EpisodeHistory, draw, to_rgb
+from sma_gym.model import ModelConfig, ModelSpec, load_model
+from sma_gym.simulator import PWM_MODES, Simulator
+
+DEFAULT_CONTROL_PERIOD_S = 10e-3
+DEFAULT_OVERHEAT_C = 150.0
+_ALL_COLUMNS = np.zeros(1, dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class Variant:
+    """What distinguishes the single-actuator envs."""
+
+    name: str
+    observation: int
+    duty_range: tuple[float, float]
+    randomised: bool = False
+
+
+TRACKING = Variant("tracking", task.TRACKING, (0.0, 1.0))
+SELF_SENSING = Variant("self-sensing", task.SELF_SENSING, (0.05, 0.8))
+ROBUST = Variant("robust", task.TRACKING, (0.0, 1.0), randomised=True)
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Validated env kwargs shared by the single env and the vector env."""
+
+    model: ModelConfig
+    control_period_s: float
+    reference: tuple[str, ...]
+    energy_weight: float
+    overheat_limit_c: float
+    pwm_mode: str
+    conditions: Conditions | None
+
+    @classmethod
+    def from_kwargs(
+        cls,
+        variant: Variant,
+        model: ModelSpec = "standard",
+        control_period_s: float = DEFAULT_CONTROL_PERIOD_S,
+        reference: str | tuple[str, ...] | list[str] = refs.TRAINING_KINDS,
+        energy_weight: float = 0.0,
+        overheat_limit_c: float = DEFAULT_OVERHEAT_C,
+        pwm_mode: str = "averaged",
+        position_noise_std_m: float | None = None,
+        resistance_noise_std_ohm: float | None = None,
+        supply_voltage_v: Any = (5.0, 15.0),
+        convection: Any = "random",
+        wire_diameter_m: Any = (0.2e-3, 0.5e-3),
+        spread: Any = 1.0,
+    ) -> "Settings":
+        m = load_model(model)
+        changes = {}
+        if position_noise_std_m is not None:
+            changes["sensors.position_noise_std_m"] = require_range("position_noise_std_m", position_noise_std_m, 0.0, 1e-3, "m")
+        if resistance_noise_std_ohm is not None:
+            changes["sensors.resistance_noise_std_ohm"] = require_range(
+                "resistance_noise_std_ohm", resistance_noise_std_ohm, 0.0, 1.0, "ohm"
+            )
+        if changes:
+            m = m.with_actuator(**changes)
+        names = (reference,) if isinstance(reference, str) else tuple(reference)
+        if not names:
+            raise ValueError("reference = (): expected at least one reference name")
+        for name in names:
+            require_choice("reference", name, refs.NAMED)
+        conditions = None
+        if variant.randomised:
+            conditions = Conditions.from_kwargs(supply_voltage_v, convection, wire_diameter_m, spread)
+        else:
+            defaults = {"supply_voltage_v": (5.0, 15.0), "convection": "random", "wire_diameter_m": (0.2e-3, 0.5e-3), "spread": 1.0}
+            given = {"supply_voltage_v": supply_voltage_v, "convection": convection, "wire_diameter_m": wire_diameter_m, "spread": spread}
+            for key, value in given.items():
+                if value != defaults[key]:
+                    raise ValueError(f"{key} = {value!r}: only the robustness env randomises conditions; use model= here")
+        return cls(
+            model=m,
+            control_period_s=require_range("control_period_s", control_period_s, 1e-4, 0.1, "s"),
+            reference=names,
+            energy_weight=require_range("energy_weight", energy_weight, 0.0, 10.0),
+            overheat_limit_c=require_range("overheat_limit_c", overheat_limit_c, 40.0, 500.0, "degC"),
+            pwm_mode=require_choice("pwm_mode", pwm_mode, PWM_MODES),
+            conditions=conditions,
+        )
+
+
+def reset_column(sim: Simulator, state: task.TaskState, i: int, rng: np.random.Generator, settings: Settings, options: dict | None) -> dict[str, Any]:
+    """Reset actuator i: draw its condition (robust) and reference from ``rng``.
+
+    The one place a single env and the vector env reset an actuator, so that the same seed
+    gives the same episode in both. Returns the reset info entries.
+    """
+    options = {} if options is None else options
+    unknown = set(options) - {"reference"}
+    if unknown:
+        raise ValueError(f"reset options {sorted(unknown)}: expected only 'reference'")
+    info: dict[str, Any] = {}
+    if settings.conditions is not None:
+        model, condition = settings.conditions.draw(settings.model, rng)
+        sim.set_model(i, model)
+        info["condition"] = condition
+    stroke = task.stroke_of(sim.params[i])
+    ref = refs.resolve(options.get("reference"), rng, stroke, settings.reference)
+    state.set_reference(i, ref)
+    sim.reset(np.array([i]))
+    state.reset_column(i, sim.params[i])
+    info["reference"] = ref.describe()
+    return info
+
+
+class SMAEnv(gym.Env):
+    """One SMA actuator tracking a position reference (see the module docstring)."""
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 100}
+
+    def __init__(self, variant: Variant = TRACKING, render_mode: str | None = None, **kwargs: Any):
+        self.variant = variant
+        self.settings = Settings.from_kwargs(variant, **kwargs)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode = {render_mode!r}: expected one of {self.metadata['render_modes']} or None")
+        self.render_mode = render_mode
+        self.metadata = dict(self.metadata, render_fps=max(1, round(1.0 / self.settings.control_period_s)))
+        self.sim = Simulator(
+            self.settings.model, control_period_s=self.settings.control_period_s, pwm_mode=self.settings.pwm_mode
+        )
+        self.task = task.TaskState(1)
+        low, high = task.bounds(variant.observation)
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+        self.feature_names = task.FEATURES[variant.observation]
+        lo, hi = variant.duty_range
+        self._duty_lo = lo
+        self._duty_half_range = 0.5 * (hi - lo)
+        self._duty = np.zeros((1, 1))
+        self._obs = np.zeros((1, len(self.feature_names)), dtype=np.float32)
+        self._reward = np.zeros(1)
+        self._term = np.zeros(1, dtype=np.bool_)
+        self._ref = np.zeros(1)
+        self._condition: dict[str, Any] | None = None
+        self._history = EpisodeHistory()
+        self._figure = None
+
+    # ------------------------------------------------------------------------------------
+    def duty_for(self, action: float) -> float:
+        """Duty applied for a (clipped) action in [-1, 1]."""
+        a = -1.0 if action < -1.0 else (1.0 if action > 1.0 else action)
+        return self._duty_lo + (a + 1.0) * self._duty_half_range
+
+    def action_for(self, duty: float) -> float:
+        """Inverse of :meth:`duty_for` (for controllers that compute a duty)."""
+        return (duty - self._duty_lo) / self._duty_half_range - 1.0
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        self.sim.rng = self.np_random
+        info = reset_column(self.sim, self.task, 0, self.np_random, self.settings, options)
+        self._condition = info.get("condition")
+        self._outputs()
+        self._history.clear()
+        if self.render_mode is not None:
+            self._record()
+        return self._obs[0].copy(), {**self._info(), **info}
+
+    def step(self, action):
+        try:
+            a = float(action[0])
+        except (TypeError, IndexError):
+            a = float(action)
+        if not math.isfinite(a):
+            raise ValueError(f"action = {action!r}: expected finite values in [-1, 1]")
+        duty = self.duty_for(a)
+        self._duty[0, 0] = duty
+        self.sim.step_unchecked(self._duty)
+        self.task.last_duty[0] = duty
+        self._outputs()
+        if self.render_mode is not None:
+            self._record()
+            if self.render_mode == "human":
+                self.render()
+        return self._obs[0].copy(), float(self._reward[0]), bool(self._term[0]), False, self._info()
+
+    def _outputs(self) -> None:
+        t = self.task
+        s = self.settings
+        task.task_outputs(
+            self.sim.state, self.sim.params, self.variant.observation, t.kind, t.params, t.wp_t, t.wp_x, t.held,
+            t.last_duty, s.energy_weight, s.overheat_limit_c, self._obs, self._reward, self._term, self._ref,
+            _ALL_COLUMNS,
+        )
+
+    def _info(self) -> dict[str, Any]:
+        st = self.sim.state[0]
+        info = {
+            "position_m": st[L.S_X],
+            "position_measured_m": st[L.S_POS_MEAS],
+            "reference_m": self._ref[0],
+            "temperature_c": st[L.S_T],
+            "martensite_fraction": st[L.S_XI],
+            "stress_pa": st[L.S_SIGMA],
+            "power_w": st[L.S_POWER],
+            "electrical_energy_j": st[L.S_E_ELECTRIC],
+            "duty": st[L.S_DUTY_CMD],
+            "resistance_valid": st[L.S_R_MEAS] == st[L.S_R_MEAS],
+            "time_s": st[L.S_TIME],
+        }
+        if self._condition is not None:
+            info["condition"] = dict(self._condition)
+        return info
+
+    # ------------------------------------------------------------------------------------
+    def _record(self) -> None:
+        st = self.sim.state[0]
+        self._history.add(
+            t=st[L.S_TIME],
+            position=st[L.S_X],
+            reference=self._ref[0],
+            duty=st[L.S_DUTY_CMD],
+            resistance=self.task.held[0, 0],
+            temperature=st[L.S_T],
+        )
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human' to make()")
+            return None
+        title = f"{self.spec.id if self.spec else 'SMA'}: {self.settings.model.name}"
+        if self.render_mode == "rgb_array":
+            import matplotlib
+
+            matplotlib.use("Agg")
+            self._figure = draw(self._history, title, figure=self._figure)
+            return to_rgb(self._figure)
+        # human: refresh a window at most every 100 ms of simulated time
+        t = self.sim.state[0, L.S_TIME]
+        if self._figure is not None and t - getattr(self, "_last_human_t", -1.0) < 0.1:
+            return None
+        import matplotlib.pyplot as plt
+
+        self._last_human_t = t
+        self._figure = draw(self._history, title, figure=self._figure)
+        plt.pause(0.001)
+        return None
+
+    def close(self) -> None:
+        if self._figure is not None:
+            import matplotlib.pyplot as plt
+
+            plt.close(self._figure)
+            self._figure = None
+
+
+def tracking(**kwargs: Any) -> SMAEnv:
+    """Entry point of ``SMATracking-v0``."""
+    return SMAEnv(TRACKING, **kwargs)
+
+
+def self_sensing(**kwargs: Any) -> SMAEnv:
+    """Entry point of ``SMASelfSensing-v0``."""
+    return SMAEnv(SELF_SENSING, **kwargs)
+
+
+def robust(**kwargs: Any) -> SMAEnv:
+    """Entry point of ``SMARobust-v0``."""
+    return SMAEnv(ROBUST, **kwargs)

@@ -1,0 +1,332 @@
+"""The Gymnasium environments: API conventions, checkers, seeding, physics agreement."""
+
+import subprocess
+import sys
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+import sma_gym
+import sma_gym.core.layout
+from sma_gym import ModelConfig, preset
+from sma_gym.envs.sb3 import SB3VecEnv
+from sma_gym.envs.task import FEATURES, SELF_SENSING
+
+IDS = sma_gym.ENV_IDS
+SINGLE_ACTUATOR_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0")
+
+
+def make(env_id, **kwargs):
+    return gym.make("sma_gym:" + env_id, **kwargs)
+
+
+def test_ids_register_on_import_in_a_fresh_interpreter():
+    code = (
+        "import gymnasium\n"
+        "for i in ('SMATracking-v0','SMASelfSensing-v0','SMAMultiplexed-v0','SMARobust-v0'):\n"
+        "    env = gymnasium.make('sma_gym:' + i); env.reset(seed=0); env.step(env.action_space.sample())\n"
+        "print('ok')\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ok"
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_gymnasium_and_sb3_checkers_pass_without_warnings(env_id):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(make(env_id).unwrapped, skip_render_check=False)
+        sb3_check_env(make(env_id))
+    assert [str(w.message) for w in caught] == []
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_spaces_follow_the_conventions(env_id):
+    env = make(env_id)
+    assert env.action_space.dtype == np.float32 and env.observation_space.dtype == np.float32
+    assert np.all(env.action_space.low == -1.0) and np.all(env.action_space.high == 1.0)
+    assert np.all(np.isfinite(env.observation_space.low)) and np.all(np.isfinite(env.observation_space.high))
+    assert env.spec.max_episode_steps == 1000
+    assert set(env.metadata["render_modes"]) == {"human", "rgb_array"} and env.metadata["render_fps"] > 0
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_same_seed_same_episode_and_different_seed_different_episode(env_id):
+    def episode(seed):
+        env = make(env_id)
+        obs, _ = env.reset(seed=seed)
+        rng = np.random.default_rng(1)
+        out = [obs]
+        for _ in range(150):
+            obs, *_ = env.step(rng.uniform(-1, 1, size=env.action_space.shape).astype(np.float32))
+            out.append(obs)
+        return np.array(out)
+
+    a, b, c = episode(3), episode(3), episode(4)
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_actions_are_clipped_and_non_finite_actions_raise(env_id):
+    env = make(env_id)
+    env.reset(seed=0)
+    shape = env.action_space.shape
+    for bad in (np.nan, np.inf, -np.inf):
+        with pytest.raises(ValueError, match="finite"):
+            env.unwrapped.step(np.full(shape, bad, dtype=np.float32))
+    _, _, _, _, info = env.step(np.full(shape, 7.0, dtype=np.float32))
+    duty = np.atleast_1d(info["duty"])
+    expected = {"SMASelfSensing-v0": 0.8, "SMAMultiplexed-v0": 1.0 / env.action_space.shape[0]}.get(env_id, 1.0)
+    assert np.allclose(duty, expected)
+
+
+def test_action_maps_affinely_onto_the_allowed_duty_range():
+    tracking = make("SMATracking-v0").unwrapped
+    sensing = make("SMASelfSensing-v0").unwrapped
+    for a, d in ((-1.0, 0.0), (0.0, 0.5), (1.0, 1.0)):
+        assert tracking.duty_for(a) == pytest.approx(d)
+        assert tracking.action_for(d) == pytest.approx(a)
+    for a, d in ((-1.0, 0.05), (0.0, 0.425), (1.0, 0.8)):
+        assert sensing.duty_for(a) == pytest.approx(d)
+
+
+def test_self_sensing_sees_no_position_and_can_always_read_resistance():
+    env = make("SMASelfSensing-v0")
+    assert "position" not in env.unwrapped.feature_names and "error" not in env.unwrapped.feature_names
+    assert env.unwrapped.feature_names == FEATURES[SELF_SENSING]
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    cut_steps = 0
+    for _ in range(600):
+        obs, reward, _, _, info = env.step(rng.uniform(-1, 1, size=(1,)).astype(np.float32))
+        assert 0.05 <= info["duty"] <= 0.8
+        cut = env.unwrapped.sim.state[0, sma_gym.core.layout.S_EOT_CUT] > 0.5
+        cut_steps += cut
+        # Readable whenever current flows: only the end-of-travel cut stops it.
+        assert info["resistance_valid"] == (not cut)
+        assert obs[1] == float(not cut)  # resistance_valid feature
+    assert cut_steps < 600
+    # The reward still uses the true position.
+    stroke = preset("standard").driver.end_of_travel_m
+    assert reward == pytest.approx(-abs(info["position_m"] - info["reference_m"]) / stroke)
+
+
+def test_reward_follows_the_documented_formula():
+    env = make("SMATracking-v0", energy_weight=0.3)
+    env.reset(seed=0, options={"reference": "report-step"})
+    p = preset("standard")
+    stroke = p.driver.end_of_travel_m
+    p_full = p.driver.supply_voltage_v**2 / p.wire.cold_resistance_ohm
+    for a in (1.0, 0.5, -1.0):
+        _, reward, _, _, info = env.step(np.array([a], dtype=np.float32))
+        expected = -abs(info["position_m"] - info["reference_m"]) / stroke - 0.3 * info["power_w"] / p_full
+        assert reward == pytest.approx(expected)
+
+
+def test_a_p_controller_reaches_the_step_reference_within_ten_seconds():
+    """The physics and the env agree: proportional control on the measured position drives
+    the true position to the report's 8 mm step."""
+    env = make("SMATracking-v0")
+    obs, info = env.reset(seed=0, options={"reference": "report-step"})
+    u = env.unwrapped
+    stroke = preset("standard").driver.end_of_travel_m
+    truncated = terminated = False
+    steps = 0
+    while not (terminated or truncated):
+        error_m = obs[u.feature_names.index("error")] * stroke
+        duty = min(1.0, max(0.0, 1000.0 * error_m))
+        obs, _, terminated, truncated, info = env.step(np.array([u.action_for(duty)], dtype=np.float32))
+        steps += 1
+    assert truncated and not terminated and steps == 1000
+    assert info["time_s"] == pytest.approx(10.0)
+    assert info["reference_m"] == pytest.approx(8e-3)
+    assert abs(info["position_m"] - 8e-3) < 0.15e-3
+
+
+def test_overheating_terminates_the_episode():
+    env = make("SMATracking-v0", overheat_limit_c=60.0)
+    env.reset(seed=0)
+    for k in range(1000):
+        _, _, terminated, truncated, info = env.step(np.array([1.0], dtype=np.float32))
+        if terminated:
+            break
+    assert terminated and not truncated and info["temperature_c"] > 60.0 and k < 100
+
+
+def test_info_carries_the_true_state_and_energy():
+    env = make("SMATracking-v0")
+    _, info = env.reset(seed=0)
+    for key in ("position_m", "temperature_c", "martensite_fraction", "stress_pa", "electrical_energy_j", "reference_m"):
+        assert key in info
+    energy = 0.0
+    for _ in range(50):
+        _, _, _, _, info = env.step(np.array([1.0], dtype=np.float32))
+        energy += info["power_w"] * 0.01
+    assert info["electrical_energy_j"] == pytest.approx(energy, rel=1e-9)
+    assert info["temperature_c"] > 40.0
+
+
+def test_reset_options_pick_the_reference():
+    env = make("SMATracking-v0")
+    for name, kind in (("report-step", "step"), ("report-sine", "sine"), ("ramp", "ramp"), ("random", "random")):
+        _, info = env.reset(seed=1, options={"reference": name})
+        assert info["reference"]["kind"] == kind
+    _, info = env.reset(seed=1, options={"reference": {"kind": "sine", "frequency_hz": 0.2, "amplitude_m": 2e-3}})
+    assert info["reference"]["frequency_hz"] == 0.2 and info["reference"]["amplitude_m"] == 2e-3
+    with pytest.raises(ValueError, match="zigzag"):
+        env.reset(options={"reference": "zigzag"})
+    with pytest.raises(ValueError, match="colour"):
+        env.reset(options={"colour": "red"})
+
+
+@pytest.mark.parametrize(
+    "env_id, kwargs, name",
+    [
+        ("SMATracking-v0", {"control_period_s": -1.0}, "control_period_s"),
+        ("SMATracking-v0", {"energy_weight": -0.1}, "energy_weight"),
+        ("SMATracking-v0", {"reference": "zigzag"}, "reference"),
+        ("SMATracking-v0", {"pwm_mode": "exact"}, "pwm_mode"),
+        ("SMATracking-v0", {"model": "no-such-preset"}, "model"),
+        ("SMATracking-v0", {"supply_voltage_v": 12.0}, "supply_voltage_v"),
+        ("SMATracking-v0", {"overheat_limit_c": 1000.0}, "overheat_limit_c"),
+        ("SMAMultiplexed-v0", {"n_actuators": 17}, "n_actuators"),
+        ("SMAMultiplexed-v0", {"cycling_frequency_hz": 50.0}, "cycling_frequency_hz"),
+        ("SMARobust-v0", {"supply_voltage_v": (15.0, 5.0)}, "supply_voltage_v"),
+        ("SMARobust-v0", {"convection": "windy"}, "convection"),
+        ("SMARobust-v0", {"wire_diameter_m": 0.5}, "wire_diameter_m"),
+    ],
+)
+def test_bad_kwargs_raise_at_make_naming_them(env_id, kwargs, name):
+    with pytest.raises(ValueError, match=name):
+        make(env_id, **kwargs)
+
+
+def test_robust_env_draws_conditions_from_its_ranges_and_reports_them():
+    env = make("SMARobust-v0")
+    seen = set()
+    for seed in range(30):
+        _, info = env.reset(seed=seed)
+        c = info["condition"]
+        assert 5.0 <= c["supply_voltage_v"] <= 15.0
+        assert 0.2e-3 <= c["wire_diameter_m"] <= 0.5e-3
+        seen.add(c["convection"])
+        sim_p = env.unwrapped.sim.params[0]
+        from sma_gym.core import layout as L
+
+        assert sim_p[L.P_V_SUPPLY] == pytest.approx(c["supply_voltage_v"])
+        assert sim_p[L.P_AREA] == pytest.approx(np.pi * c["wire_diameter_m"] ** 2 / 4)
+    assert seen == {"natural", "forced"}
+    fixed = make("SMARobust-v0", supply_voltage_v=15.0, convection="forced", wire_diameter_m=0.5e-3, spread=0.0)
+    _, info = fixed.reset(seed=5)
+    assert info["condition"]["supply_voltage_v"] == 15.0 and info["condition"]["convection"] == "forced"
+    assert info["condition"]["transformation_shift_k"] == 0.0
+
+
+def test_multiplexed_env_caps_each_actuator_at_one_nth_and_tracks_each_reference():
+    env = make("SMAMultiplexed-v0", n_actuators=8, cycling_frequency_hz=2000.0)
+    obs, info = env.reset(seed=0)
+    assert obs.shape == (8 * 9,) and env.action_space.shape == (8,)
+    assert len({str(r) for r in info["references"]}) == 8
+    _, _, _, _, info = env.step(np.ones(8, dtype=np.float32))
+    assert np.allclose(info["duty"], 1.0 / 8)
+    assert env.unwrapped.sim.pwm_mode == "resolved"
+    # One actuator at full slot rises, one at zero stays.
+    action = -np.ones(8, dtype=np.float32)
+    action[3] = 1.0
+    for _ in range(300):
+        _, _, _, _, info = env.step(action)
+    assert info["position_m"][3] > 0.5e-3
+    assert np.all(np.delete(info["position_m"], 3) <= 1e-5)
+
+
+def test_env_runs_on_a_model_configuration_file(tmp_path):
+    model = ModelConfig(preset("standard")).with_effect("latent_heat", {"latent_heat_j_kg": 24200.0})
+    path = model.save(tmp_path / "corrected.json")
+    env = make("SMATracking-v0", model=str(path))
+    assert env.unwrapped.sim.models[0] == model
+    plain = make("SMATracking-v0")
+    env.reset(seed=0, options={"reference": "report-step"})
+    plain.reset(seed=0, options={"reference": "report-step"})
+    b = {"position_m": 0.0}
+    while b["position_m"] < 5e-3:
+        _, _, _, _, a = env.step(np.array([1.0], dtype=np.float32))
+        _, _, _, _, b = plain.step(np.array([1.0], dtype=np.float32))
+    assert a["position_m"] < b["position_m"] - 1e-3  # latent heat slows the transformation
+
+
+def test_rgb_array_render_shows_the_episode():
+    env = make("SMATracking-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    first = env.render()
+    for _ in range(100):
+        env.step(np.array([1.0], dtype=np.float32))
+    later = env.render()
+    assert first.dtype == np.uint8 and first.ndim == 3 and first.shape[2] == 3
+    assert later.shape == first.shape and not np.array_equal(first, later)
+    env.close()
+
+
+@pytest.mark.parametrize(
+    "env_id, kwargs",
+    [
+        ("SMATracking-v0", {}),
+        ("SMARobust-v0", {}),
+        ("SMASelfSensing-v0", {"position_noise_std_m": 1e-5, "resistance_noise_std_ohm": 0.01}),
+    ],
+)
+def test_vector_env_matches_single_envs_step_for_step(env_id, kwargs):
+    n = 4
+    venv = gym.make_vec("sma_gym:" + env_id, num_envs=n, vectorization_mode="vector_entry_point", max_episode_steps=50, **kwargs)
+    assert venv.metadata["autoreset_mode"] == gym.vector.AutoresetMode.SAME_STEP
+    singles = [make(env_id, max_episode_steps=50, **kwargs) for _ in range(n)]
+    vo, _ = venv.reset(seed=7)
+    assert np.array_equal(vo, np.stack([e.reset(seed=7 + i)[0] for i, e in enumerate(singles)]))
+    rng = np.random.default_rng(0)
+    ended = 0
+    for _ in range(160):
+        actions = rng.uniform(-1.2, 1.2, size=(n, 1)).astype(np.float32)
+        vo, vr, vt, vtr, vinfo = venv.step(actions)
+        for i, env in enumerate(singles):
+            o, r, t, tr, info = env.step(actions[i])
+            assert vr[i] == r and vt[i] == t and vtr[i] == tr
+            assert vinfo["position_m"][i] == info["position_m"] or (t or tr)
+            if t or tr:
+                ended += 1
+                assert vinfo["_final_obs"][i] and np.array_equal(vinfo["final_obs"][i], o)
+                o, _ = env.reset()
+            assert np.array_equal(vo[i], o)
+    assert ended >= n * 3
+
+
+def test_vector_env_rejects_bad_actions():
+    venv = gym.make_vec("sma_gym:SMATracking-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    venv.reset(seed=0)
+    with pytest.raises(ValueError, match=r"actions\[1\]"):
+        venv.step(np.array([[0.0], [np.nan], [0.0]], dtype=np.float32))
+
+
+def test_sb3_trains_on_the_native_vector_env_through_the_adapter():
+    from stable_baselines3 import PPO
+
+    venv = SB3VecEnv(
+        gym.make_vec("sma_gym:SMATracking-v0", num_envs=8, vectorization_mode="vector_entry_point", max_episode_steps=40)
+    )
+    model = PPO("MlpPolicy", venv, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
+    model.learn(total_timesteps=512)
+    obs = venv.reset()
+    ends = 0
+    for _ in range(45):
+        action, _ = model.predict(obs, deterministic=True)
+        obs, rewards, dones, infos = venv.step(action)
+        for done, info in zip(dones, infos):
+            if done:
+                ends += 1
+                assert info["terminal_observation"].shape == obs.shape[1:]
+                assert info["TimeLimit.truncated"] is True
+    assert ends == 8
