@@ -16,14 +16,19 @@ simulation, see ``sma-gym evaluate``):
 * Derivatives (PID's Kd = 10, VSC's lambda = 0.0125) act on de/dt in m/s: per-sample
   differences would make them negligible, but the report's tuning trades overshoot against
   them (§6.1, §6.4).
-* Boundary layers: K inside the layer is 1 / phi, so the duty is continuous at the layer's
-  edge (the report leaves K unstated). VSC3/VSC4's phi = 0.011 m is the report's value;
-  a layer wider than the 8 mm step means they act as a saturated linear law on the sliding
-  variable, which is what gives them no overshoot (§6.4).
-* Anti-windup: the integral is clamped (§6.1: "the integral action is bounded"). Plain
-  clamping, not conditional integration: the report's PID overshoots because its integral
-  winds up to the bound during the rise (Table 6.1), and conditional integration would
-  remove that character.
+* Boundary layers: the switching term is sat(s / phi) in [-1, 1] (K = 1 / phi inside the
+  layer, which the report leaves unstated, so the duty is continuous at its edge), added to
+  the feedforward and clipped to [0, 1]. Without feedforward this is exactly the report's
+  law (0 below the layer); with it, feedback can also take the duty below the feedforward,
+  without which a VSC with feedforward could not cool (the report's can, Table 6.1).
+* VSC3/VSC4 use phi = 0.0011 m, not the printed 0.011: with a continuous boundary law the
+  steady-state error is (holding duty) * phi, and the report's 0.046 mm needs phi ~ 0.001
+  (0.011 gives 0.7 mm in simulation); the printed value is the typo MODEL.md suspects.
+* Anti-windup: the integral is clamped (§6.1: "the integral action is bounded"), per
+  controller since the report tuned each separately and states no bound: PID 0.8 of the
+  duty range, VSC4 0.1. Plain clamping, not conditional integration: in this model the
+  PID's overshoot comes from its integral winding up during the rise, and these bounds
+  reproduce Table 6.1's overshoots (PID 0.757 mm, VSC4 0.057 mm, VSC4 + FF 0.130 mm).
 * The position filter: first order, 50 Hz cut-off (the report gives no number; it passes
   the 0.1 Hz - 5 Hz of the experiments and attenuates sensor noise).
 """
@@ -36,9 +41,6 @@ from dataclasses import dataclass
 import numpy as np
 
 FILTER_CUTOFF_HZ = 50.0
-INTEGRAL_LIMIT = 1.0
-"""Anti-windup, part 1: the integral term may contribute at most the full duty range (a
-multiplexed actuator needs nearly all of it to hold a position at 1/n duty, §9)."""
 
 
 @dataclass(frozen=True)
@@ -53,6 +55,8 @@ class ControllerSpec:
     phi: float = 0.0
     lam: float = 0.0
     lam_i_per_sample: float = 0.0
+    integral_limit: float = 0.0
+    """Largest duty the integral term may contribute (anti-windup)."""
     feedforward: bool = False
     k_pos: float = 7.0
     k_vel: float = 20.0
@@ -62,11 +66,11 @@ class ControllerSpec:
         return self.name + (" + FF" if self.feedforward else "")
 
 
-PID = ControllerSpec("PID", "pid", kp=1000.0, ki_per_sample=0.8, kd=10.0)
+PID = ControllerSpec("PID", "pid", kp=1000.0, ki_per_sample=0.8, kd=10.0, integral_limit=0.8)
 VSC1 = ControllerSpec("VSC1", "switch")
 VSC2 = ControllerSpec("VSC2", "boundary", phi=0.001)
-VSC3 = ControllerSpec("VSC3", "boundary", phi=0.011, lam=0.0125)
-VSC4 = ControllerSpec("VSC4", "boundary", phi=0.011, lam=0.0125, lam_i_per_sample=0.00025)
+VSC3 = ControllerSpec("VSC3", "boundary", phi=0.0011, lam=0.0125)
+VSC4 = ControllerSpec("VSC4", "boundary", phi=0.0011, lam=0.0125, lam_i_per_sample=0.00025, integral_limit=0.1)
 BASE_SPECS = (PID, VSC1, VSC2, VSC3, VSC4)
 
 
@@ -111,9 +115,9 @@ class Controller:
 
     def __call__(self, position_m: np.ndarray, reference_m: np.ndarray, reference_rate_m_s: np.ndarray | None = None) -> np.ndarray:
         """Duty (n,) for measured positions and references (shape (n,) or scalars)."""
-        x = np.broadcast_to(np.asarray(position_m, dtype=float), (self.n,))
-        r = np.broadcast_to(np.asarray(reference_m, dtype=float), (self.n,))
-        rate = np.zeros(self.n) if reference_rate_m_s is None else np.broadcast_to(np.asarray(reference_rate_m_s, dtype=float), (self.n,))
+        x = self._vector(position_m)
+        r = self._vector(reference_m)
+        rate = np.zeros(self.n) if reference_rate_m_s is None else self._vector(reference_rate_m_s)
         fresh = ~self._started
         self._filtered = np.where(fresh, x, self._filtered + self._alpha * (x - self._filtered))
         e = r - self._filtered
@@ -123,17 +127,21 @@ class Controller:
         s = self.spec
         ff = s.k_pos * r + s.k_vel * np.maximum(rate, 0.0) if s.feedforward else 0.0
         if s.law == "pid":
-            self._integrate(e, INTEGRAL_LIMIT / s.ki_per_sample)
+            self._integrate(e, s.integral_limit / s.ki_per_sample)
             u = s.kp * e + s.ki_per_sample * self._integral + s.kd * de + ff
         elif s.law == "switch":
-            u = (e > 0.0).astype(float) + ff
+            u = np.where(e > 0.0, 1.0, -1.0) + ff
         else:
             sliding = e + s.lam * de
             if s.lam_i_per_sample > 0.0:
-                self._integrate(e, INTEGRAL_LIMIT * s.phi / s.lam_i_per_sample)
+                self._integrate(e, s.integral_limit * s.phi / s.lam_i_per_sample)
                 sliding = sliding + s.lam_i_per_sample * self._integral
-            u = np.clip(sliding / s.phi, 0.0, 1.0) + ff
+            u = np.clip(sliding / s.phi, -1.0, 1.0) + ff
         return np.clip(u, 0.0, 1.0)
+
+    def _vector(self, value) -> np.ndarray:
+        a = np.asarray(value, dtype=float)
+        return a if a.shape == (self.n,) else np.broadcast_to(a, (self.n,))
 
     def _integrate(self, e: np.ndarray, limit: float) -> None:
         self._integral += e

@@ -13,13 +13,14 @@ Experiments (all with the report's standard actuator unless stated):
   simulated V/I readings, x from the position reading.
 * T4, fig. 6.4: open loop, constant duty from rest held 60 s; the duty that ends at 5 mm
   (the report's way: "the voltage required to hold the actuator at a certain position").
-* T5, §8: the report's PID holds 1 mm, then a step (or ramp of 1, 2, 3 s) to 7 mm; the
-  efficiency is integral(F dx) / integral(P dt) from the step until the position first
-  reaches 6.9 mm (the report states neither its window nor its controller).
-* T8, §9: the report's PID on a multiplexed bank (one column per bank: actuators on one
-  multiplexer do not interact), 3 mm step, 2 kHz cycling unless stated. The report does not
-  give the step; by its own T4 fit 16 actuators at 10 V can hold at most ~5 mm, so its step
-  was smaller; we take 3 mm.
+* T5, §8: the evaluation harness's chapter-8 protocol with the report's PID: it holds 1 mm,
+  then a step (or ramp of 1, 2, 3 s) to 7 mm; the efficiency is integral(F dx) /
+  integral(P dt) from the step until the position first reaches 6.9 mm (the report states
+  neither its window nor its controller).
+* T8, §9: the harness's chapter-9 protocol: the report's PID on the multiplexed env, a
+  3 mm step, 2 kHz cycling unless stated; the multiplexer caps each actuator's duty at 1/n.
+  The report does not give the step; by its own T4 fit 16 actuators at 10 V can hold at
+  most ~5 mm, so its step was smaller; we take 3 mm.
 * T9, §4.1: the smallest duty with a resistance reading at 1 kHz and 500 Hz PWM.
 """
 
@@ -350,54 +351,27 @@ def t4_rows(curve: dict[str, np.ndarray]) -> list[Row]:
 # --------------------------------------------------------------------------------------
 # T5: efficiency (§8)
 # --------------------------------------------------------------------------------------
-T5_CASES = (
-    ("step 5 V", "supply-5v", 0.0, 0.12),
-    ("step 7.5 V", "supply-7.5v", 0.0, 0.42),
-    ("step 10 V", "supply-10v", 0.0, 0.51),
-    ("step 15 V", "supply-15v", 0.0, 0.60),
-    ("ramp 1 s", "supply-10v", 1.0, 0.34),
-    ("ramp 2 s", "supply-10v", 2.0, 0.24),
-    ("ramp 3 s", "supply-10v", 3.0, 0.18),
-)
+def _t5_cases():
+    from agents.evaluation import CHAPTER_8_CASES
+
+    return CHAPTER_8_CASES
 
 
-def efficiency_runs(hold_s: float = 4.0, after_s: float = 6.0) -> dict[str, Any]:
-    """PID holds 1 mm, then steps or ramps to 7 mm; returns traces and efficiencies [%]."""
-    from agents.controllers import PID, Controller
-
-    n = len(T5_CASES)
-    sim = Simulator([c[1] for c in T5_CASES])
-    ctl = Controller(PID, n=n)
-    ramp = np.array([c[2] for c in T5_CASES])
-    steps = int(round((hold_s + after_s) * 1000))
-    x = np.zeros((steps, n))
-    power = np.zeros((steps, n))
-    force = np.zeros((steps, n))
-    safe_ramp = np.maximum(ramp, 1e-9)
-    for k in range(steps):
-        t = k * 1e-3
-        frac = np.where(ramp > 0, np.clip((t - hold_s) / safe_ramp, 0.0, 1.0), float(t >= hold_s))
-        ref = 1e-3 + 6e-3 * frac
-        rate = np.where((ramp > 0) & (t >= hold_s) & (t < hold_s + ramp), 6e-3 / safe_ramp, 0.0)
-        sim.step(ctl(sim.position_measured_m, ref, rate))
-        x[k] = sim.position_m
-        power[k] = sim.power_w
-        force[k] = sim.spring_force_n
-    k0 = int(round(hold_s * 1000))
-    eff = []
-    for j in range(n):
-        crossing = np.flatnonzero(x[k0:, j] >= 6.9e-3)
-        end = k0 + (crossing[0] if crossing.size else steps - 1 - k0)
-        dx = np.diff(x[k0 - 1 : end + 1, j])
-        f_mid = 0.5 * (force[k0 - 1 : end, j] + force[k0 : end + 1, j])
-        work = float(np.sum(f_mid * dx))
-        energy = float(np.sum(power[k0 : end + 1, j]) * 1e-3)
-        eff.append(100.0 * work / energy)
-    return {"efficiency_percent": np.array(eff), "x": x, "power": power, "force": force, "k0": k0}
+T5_CASES = _t5_cases()
 
 
-def t5_rows(runs: dict[str, Any]) -> list[Row]:
-    eff = runs["efficiency_percent"]
+def efficiency_runs():
+    """The report's PID on the chapter-8 protocol (the evaluation harness's), noise-free."""
+    from agents.controllers import PID
+    from agents.evaluation import Results, baseline, run_chapter_8
+
+    results = Results()
+    run_chapter_8([baseline(PID)], results, seeds=(0,), cases=T5_CASES, noise_m=0.0)
+    return results
+
+
+def t5_rows(runs) -> list[Row]:
+    eff = np.array([runs.value("8", "PID", label, "1 -> 7 mm", "efficiency_percent") for label, *_ in T5_CASES])
     rows = []
     for (label, _, _, report), value in zip(T5_CASES, eff):
         rows.append(
@@ -449,32 +423,14 @@ def t5_rows(runs: dict[str, Any]) -> list[Row]:
 T8_STEP_M = 3e-3
 
 
-def multiplexed_steps(conditions: Sequence[tuple[int, float, float]], duration_s: float) -> dict[str, np.ndarray]:
-    """PID step responses of one actuator of each (n_actuators, cycling Hz, supply V) bank."""
-    from agents.controllers import PID, Controller
+def multiplexed_steps(conditions: Sequence[tuple[int, float, float]]):
+    """The report's PID on the multiplexed env (the evaluation harness's chapter 9), noise-free."""
+    from agents.controllers import PID
+    from agents.evaluation import Results, baseline, run_chapter_9
 
-    models = [f"supply-{v:g}v" for (_, _, v) in conditions]
-    slots = [(1.0 / f, 0.0, 1.0 / n) for (n, f, _) in conditions]
-    sim = Simulator(models, pwm_mode="resolved", pwm_slots=slots)
-    ctl = Controller(PID, n=len(conditions))
-    scale = np.array([1.0 / n for (n, _, _) in conditions])
-    ref = np.full(len(conditions), T8_STEP_M)
-    steps = int(round(duration_s * 1000))
-    x = np.zeros((steps, len(conditions)))
-    for k in range(steps):
-        # The FPGA gives each actuator duty * (its 1/n share of the cycle) (§3.4).
-        sim.step(ctl(sim.position_measured_m, ref) * scale)
-        x[k] = sim.position_m
-    return {"t": (np.arange(steps) + 1) * 1e-3, "x": x}
-
-
-def _rise(t: np.ndarray, x: np.ndarray) -> float:
-    return _first_time(t, x >= 0.9 * T8_STEP_M)
-
-
-def _tail_p2p(x: np.ndarray, seconds: float = 2.0) -> float:
-    tail = x[-int(seconds * 1000) :]
-    return float(tail.max() - tail.min())
+    results = Results()
+    run_chapter_9([baseline(PID)], results, conditions=conditions, noise_m=0.0)
+    return results
 
 
 T8_COUNT_CONDITIONS = ((1, 2000.0, 10.0), (8, 2000.0, 10.0), (16, 2000.0, 10.0), (16, 2000.0, 15.0), (16, 2000.0, 20.0))
@@ -482,11 +438,14 @@ T8_FREQUENCIES = (100.0, 500.0, 1000.0, 2000.0, 3000.0, 4000.0)
 T8_FREQ_CONDITIONS = tuple((n, f, 10.0) for n in (1, 8, 16) for f in T8_FREQUENCIES)
 
 
-def t8_rows(counts: dict[str, np.ndarray], freqs: dict[str, np.ndarray]) -> list[Row]:
-    t = counts["t"]
-    rise = [_rise(t, counts["x"][:, j]) for j in range(len(T8_COUNT_CONDITIONS))]
-    r1, r8, r16, r16_15, r16_20 = rise
-    over20 = (float(counts["x"][:, 4].max()) - T8_STEP_M) * 1e3
+def t8_rows(runs) -> list[Row]:
+    from agents.evaluation import chapter_9_label
+
+    def metric(n: int, f: float, v: float, name: str) -> float:
+        return runs.value("9", "PID", chapter_9_label(n, f, v), "3 mm step", name)
+
+    r1, r8, r16, r16_15, r16_20 = (metric(n, f, v, "rise_time_s") for n, f, v in T8_COUNT_CONDITIONS)
+    over20 = metric(16, 2000.0, 20.0, "overshoot_m") * 1e3
     rows = [
         Row(
             "T8 rise time, 16 actuators at 10 V [s]",
@@ -526,16 +485,12 @@ def t8_rows(counts: dict[str, np.ndarray], freqs: dict[str, np.ndarray]) -> list
             over20 > 0.05,
         ),
     ]
-    tf = freqs["t"]
-    xf = freqs["x"]
 
     def p2p(n: int, f: float) -> float:
-        j = T8_FREQ_CONDITIONS.index((n, f, 10.0))
-        return _tail_p2p(xf[:, j])
+        return metric(n, f, 10.0, "oscillation_p2p_m")
 
     def rise_f(n: int, f: float) -> float:
-        j = T8_FREQ_CONDITIONS.index((n, f, 10.0))
-        return _rise(tf, xf[:, j])
+        return metric(n, f, 10.0, "rise_time_s")
 
     low = p2p(1, 100.0)
     high = max(p2p(1, f) for f in T8_FREQUENCIES[2:])
@@ -639,9 +594,8 @@ def run(quick: bool = False) -> FidelityResult:
     result.rows += t4_rows(curve)
     eff = efficiency_runs()
     result.rows += t5_rows(eff)
-    counts = multiplexed_steps(T8_COUNT_CONDITIONS, 25.0)
-    freqs = multiplexed_steps(T8_FREQ_CONDITIONS, 25.0)
-    result.rows += t8_rows(counts, freqs)
+    mux = multiplexed_steps(T8_COUNT_CONDITIONS + tuple(c for c in T8_FREQ_CONDITIONS if c not in T8_COUNT_CONDITIONS))
+    result.rows += t8_rows(mux)
     result.rows += t9_rows()
     for row in result.rows:
         if row.target in KNOWN_GAPS:
@@ -654,7 +608,7 @@ def run(quick: bool = False) -> FidelityResult:
         "fig4_9_resistance_loop.png": lambda out: fp.plot_resistance_loop(loop, first, out),
         "fig6_4_holding_duty.png": lambda out: fp.plot_holding(curve, out),
         "fig8_efficiency.png": lambda out: fp.plot_efficiency(eff, T5_CASES, out),
-        "fig9_multiplexed_rise.png": lambda out: fp.plot_multiplexed(counts, T8_COUNT_CONDITIONS, freqs, T8_FREQ_CONDITIONS, out),
+        "fig9_multiplexed_rise.png": lambda out: fp.plot_multiplexed(mux, T8_COUNT_CONDITIONS, T8_FREQ_CONDITIONS, out),
         "bench_0.5mm_ht_vs_measured.png": lambda out: fp.plot_bench(out),
     }
     return result

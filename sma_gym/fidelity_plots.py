@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -66,41 +66,49 @@ def plot_holding(curve: dict[str, np.ndarray], out: Path) -> Path:
     return save(fig, out)
 
 
-def plot_efficiency(runs: dict[str, Any], cases: Sequence[tuple], out: Path) -> Path:
-    """Chapter 8: simulated against reported efficiencies, and the traces."""
+def plot_efficiency(runs, cases: Sequence[tuple], out: Path) -> Path:
+    """Chapter 8: simulated against reported efficiencies, and the strokes."""
     fig, axes = new_figure(1, 2, size=(11, 4.5))
     ax = axes[0, 0]
     labels = [c[0] for c in cases]
     report = [c[3] for c in cases]
+    simulated = [runs.value("8", "PID", label, "1 -> 7 mm", "efficiency_percent") for label in labels]
     idx = np.arange(len(cases))
     ax.bar(idx - 0.2, report, 0.4, label="report (Tables 8.1, 8.2)")
-    ax.bar(idx + 0.2, runs["efficiency_percent"], 0.4, label="simulated")
+    ax.bar(idx + 0.2, simulated, 0.4, label="simulated (PID)")
     ax.set_xticks(idx, labels, rotation=30, fontsize=8)
     ax.set(ylabel="efficiency [%]", title="Efficiency of 1 -> 7 mm strokes")
     ax.legend(fontsize=8)
     ax = axes[0, 1]
-    k0 = runs["k0"]
-    t = (np.arange(runs["x"].shape[0]) - k0) * 1e-3
-    for j, label in enumerate(labels):
-        ax.plot(t, runs["x"][:, j] * 1e3, label=label)
+    for label in labels:
+        trace = runs.traces[("8", "PID", label, "1 -> 7 mm")]
+        ax.plot(trace.t - 4.0, trace["position_m"][:, 0] * 1e3, label=label)
     ax.set(xlabel="time from step [s]", ylabel="position [mm]", xlim=(-0.5, 4), title="PID strokes (cf. figs. 8.1, 8.2)")
     ax.legend(fontsize=7)
     return save(fig, out)
 
 
-def plot_multiplexed(counts: dict[str, np.ndarray], count_conditions, freqs: dict[str, np.ndarray], freq_conditions, out: Path) -> Path:
+def plot_multiplexed(runs, count_conditions, freq_conditions, out: Path) -> Path:
     """Chapter 9: step responses against number of actuators, supply and cycling frequency."""
+    from agents.evaluation import chapter_9_label
+
+    def x0(n: int, f: float, v: float):
+        trace = runs.traces[("9", "PID", chapter_9_label(n, f, v), "3 mm step")]
+        return trace.t, trace["position_m"][:, 0, 0] * 1e3
+
     fig, axes = new_figure(1, 4, size=(18, 4.2))
     ax = axes[0, 0]
-    for j, (n, f, v) in enumerate(count_conditions):
-        ax.plot(counts["t"], counts["x"][:, j] * 1e3, label=f"{n} act., {v:g} V")
+    for n, f, v in count_conditions:
+        t, x = x0(n, f, v)
+        ax.plot(t, x, label=f"{n} act., {v:g} V")
     ax.set(xlabel="time [s]", ylabel="position [mm]", title="Multiplexed PID step, 2 kHz (cf. figs. 9.1-9.3)")
     ax.legend(fontsize=8)
     for k, n in enumerate((1, 8, 16)):
         ax = axes[0, k + 1]
-        for j, (nn, f, v) in enumerate(freq_conditions):
+        for nn, f, v in freq_conditions:
             if nn == n:
-                ax.plot(freqs["t"], freqs["x"][:, j] * 1e3, lw=1, label=f"{f:g} Hz")
+                t, x = x0(nn, f, v)
+                ax.plot(t, x, lw=1, label=f"{f:g} Hz")
         ax.set(xlabel="time [s]", ylabel="position [mm]", title=f"{n} actuator(s), 10 V (cf. fig. 9.5)")
         ax.set_xlim(0, {1: 1.0, 8: 8.0, 16: 25.0}[n])
         ax.legend(fontsize=7)

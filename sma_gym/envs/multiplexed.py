@@ -67,6 +67,12 @@ class SMAMultiplexedEnv(gym.Env):
         self.features_per_actuator = len(low)
         self.observation_space = spaces.Box(np.tile(low, self.n), np.tile(high, self.n), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(self.n,), dtype=np.float32)
+        self.feature_names = task.FEATURES[task.TRACKING]
+        self.duty_range = (0.0, 1.0 / self.n)
+        self.control_period_s = self.settings.control_period_s
+        self.position_scale_m = task.stroke_of(self.sim.params[0])
+        p0 = self.sim.params[0]
+        self.resistance_scale_ohm = float(p0[L.P_RHO_M] * p0[L.P_LENGTH] / p0[L.P_AREA])
         self._columns = np.arange(self.n, dtype=np.int64)
         self._obs = np.zeros((self.n, self.features_per_actuator), dtype=np.float32)
         self._reward = np.zeros(self.n)
@@ -141,6 +147,7 @@ class SMAMultiplexedEnv(gym.Env):
             "stress_pa": st[:, L.S_SIGMA].copy(),
             "power_w": st[:, L.S_POWER].copy(),
             "electrical_energy_j": st[:, L.S_E_ELECTRIC].copy(),
+            "spring_force_n": st[:, L.S_FORCE].copy(),
             "duty": st[:, L.S_DUTY_CMD].copy(),
             "resistance_valid": ~np.isnan(st[:, L.S_R_MEAS]),
             "time_s": float(st[0, L.S_TIME]),

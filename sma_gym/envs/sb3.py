@@ -18,7 +18,17 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
-_PER_STEP_INFO = ("position_m", "reference_m", "temperature_c", "electrical_energy_j", "power_w")
+_PER_STEP_INFO = (
+    "position_m",
+    "position_measured_m",
+    "reference_m",
+    "temperature_c",
+    "electrical_energy_j",
+    "power_w",
+    "spring_force_n",
+    "duty",
+    "time_s",
+)
 
 
 class SB3VecEnv(VecEnv):

@@ -9,7 +9,9 @@ All three are one class, :class:`SMAEnv`, configured by a :class:`Variant`:
   so that every PWM pulse outlasts the 50 us settling and R can always be read (report
   §4.1, T9) — except while the driver's end-of-travel cut holds the power off, when no
   current flows (the ``resistance_valid`` feature is then 0 and the last reading is held).
-  The reward still uses the true position.
+  The reward still uses the true position. Default model: ``forced-convection``, the
+  report's self-sensing setup (§4.2): with the minimum duty, natural convection at 10 V
+  cannot cool the wire back down (§4.1).
 * ``SMARobust-v0``: the tracking task under the report's chapter-7 conditions (supply 5-15 V,
   natural or forced convection, 0.2-0.5 mm wire) plus parameter spread, drawn at every reset
   from ``self.np_random`` and reported in ``info["condition"]``; kwargs fix any of them.
@@ -25,7 +27,12 @@ hotter); episodes are truncated by ``max_episode_steps`` (registered: 1000 steps
 
 ``info``: the true state (``position_m``, ``temperature_c``, ``martensite_fraction``,
 ``stress_pa``), ``reference_m``, ``power_w`` and ``electrical_energy_j`` (since reset),
-``duty``, ``resistance_valid``, ``time_s``; robustness: ``condition``.
+``spring_force_n`` (what the report's force transducer reads), ``duty``,
+``resistance_valid``, ``time_s``; robustness: ``condition``.
+
+The constants that define the observation are attributes, so a controller can turn the
+features back into SI units: ``position_scale_m`` (the stroke), ``resistance_scale_ohm``
+(the cold resistance), ``duty_range`` and ``control_period_s``.
 """
 
 from __future__ import annotations
@@ -60,10 +67,13 @@ class Variant:
     observation: int
     duty_range: tuple[float, float]
     randomised: bool = False
+    default_model: str = "standard"
 
 
 TRACKING = Variant("tracking", task.TRACKING, (0.0, 1.0))
-SELF_SENSING = Variant("self-sensing", task.SELF_SENSING, (0.05, 0.8))
+# The report's self-sensing experiments ran with a fan (§4.2): with the minimum duty that
+# keeps R readable, natural convection cannot cool the wire back down at 10 V (§4.1).
+SELF_SENSING = Variant("self-sensing", task.SELF_SENSING, (0.05, 0.8), default_model="forced-convection")
 ROBUST = Variant("robust", task.TRACKING, (0.0, 1.0), randomised=True)
 
 
@@ -73,7 +83,7 @@ class Settings:
 
     model: ModelConfig
     control_period_s: float
-    reference: tuple[str, ...]
+    reference: tuple[Any, ...]
     energy_weight: float
     overheat_limit_c: float
     pwm_mode: str
@@ -83,9 +93,9 @@ class Settings:
     def from_kwargs(
         cls,
         variant: Variant,
-        model: ModelSpec = "standard",
+        model: ModelSpec = None,
         control_period_s: float = DEFAULT_CONTROL_PERIOD_S,
-        reference: str | tuple[str, ...] | list[str] = refs.TRAINING_KINDS,
+        reference: str | dict | tuple[str, ...] | list[str] = refs.TRAINING_KINDS,
         energy_weight: float = 0.0,
         overheat_limit_c: float = DEFAULT_OVERHEAT_C,
         pwm_mode: str = "averaged",
@@ -96,7 +106,7 @@ class Settings:
         wire_diameter_m: Any = (0.2e-3, 0.5e-3),
         spread: Any = 1.0,
     ) -> "Settings":
-        m = load_model(model)
+        m = load_model(variant.default_model if model is None else model)
         changes = {}
         if position_noise_std_m is not None:
             changes["sensors.position_noise_std_m"] = require_range("position_noise_std_m", position_noise_std_m, 0.0, 1e-3, "m")
@@ -106,11 +116,14 @@ class Settings:
             )
         if changes:
             m = m.with_actuator(**changes)
-        names = (reference,) if isinstance(reference, str) else tuple(reference)
+        names = (reference,) if isinstance(reference, (str, dict)) else tuple(reference)
         if not names:
             raise ValueError("reference = (): expected at least one reference name")
         for name in names:
-            require_choice("reference", name, refs.NAMED)
+            if isinstance(name, dict):
+                refs.resolve(name, np.random.default_rng(0), 9.5e-3, "step")  # validates the fields
+            else:
+                require_choice("reference", name, refs.NAMED)
         conditions = None
         if variant.randomised:
             conditions = Conditions.from_kwargs(supply_voltage_v, convection, wire_diameter_m, spread)
@@ -175,6 +188,9 @@ class SMAEnv(gym.Env):
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
         self.feature_names = task.FEATURES[variant.observation]
+        self.duty_range = variant.duty_range
+        self.control_period_s = self.settings.control_period_s
+        self._set_scales()
         lo, hi = variant.duty_range
         self._duty_lo = lo
         self._duty_half_range = 0.5 * (hi - lo)
@@ -186,6 +202,11 @@ class SMAEnv(gym.Env):
         self._condition: dict[str, Any] | None = None
         self._history = EpisodeHistory()
         self._figure = None
+
+    def _set_scales(self) -> None:
+        params = self.sim.params[0]
+        self.position_scale_m = task.stroke_of(params)
+        self.resistance_scale_ohm = float(params[L.P_RHO_M] * params[L.P_LENGTH] / params[L.P_AREA])
 
     # ------------------------------------------------------------------------------------
     def duty_for(self, action: float) -> float:
@@ -202,6 +223,8 @@ class SMAEnv(gym.Env):
         self.sim.rng = self.np_random
         info = reset_column(self.sim, self.task, 0, self.np_random, self.settings, options)
         self._condition = info.get("condition")
+        if self._condition is not None:
+            self._set_scales()
         self._outputs()
         self._history.clear()
         if self.render_mode is not None:
@@ -246,6 +269,7 @@ class SMAEnv(gym.Env):
             "stress_pa": st[L.S_SIGMA],
             "power_w": st[L.S_POWER],
             "electrical_energy_j": st[L.S_E_ELECTRIC],
+            "spring_force_n": st[L.S_FORCE],
             "duty": st[L.S_DUTY_CMD],
             "resistance_valid": st[L.S_R_MEAS] == st[L.S_R_MEAS],
             "time_s": st[L.S_TIME],

@@ -40,6 +40,7 @@ _INFO_ROWS = (
     ("stress_pa", L.S_SIGMA),
     ("power_w", L.S_POWER),
     ("electrical_energy_j", L.S_E_ELECTRIC),
+    ("spring_force_n", L.S_FORCE),
     ("duty", L.S_DUTY_CMD),
     ("time_s", L.S_TIME),
 )
@@ -69,6 +70,8 @@ class SMAVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.feature_names = task.FEATURES[variant.observation]
+        self.duty_range = variant.duty_range
+        self.control_period_s = self.settings.control_period_s
         lo, hi = variant.duty_range
         self._duty_lo = lo
         self._duty_half_range = 0.5 * (hi - lo)
@@ -83,6 +86,19 @@ class SMAVectorEnv(VectorEnv):
         self._rngs: list[np.random.Generator | None] = [None] * n
         self._conditions: list[dict | None] = [None] * n
         self._all_true = np.ones(n, dtype=bool)
+
+    @property
+    def position_scale_m(self) -> np.ndarray:
+        """Stroke each sub-env's position features are divided by [m], shape (num_envs,)."""
+        p = self.sim.params
+        eot = p[:, L.P_EOT]
+        return np.where(np.isfinite(eot), eot, p[:, L.P_EPS0] * p[:, L.P_LENGTH])
+
+    @property
+    def resistance_scale_ohm(self) -> np.ndarray:
+        """Cold resistance each sub-env's resistance feature is relative to [ohm]."""
+        p = self.sim.params
+        return p[:, L.P_RHO_M] * p[:, L.P_LENGTH] / p[:, L.P_AREA]
 
     def reset(self, *, seed: int | list[int] | None = None, options: dict | None = None):
         if seed is None:

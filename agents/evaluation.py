@@ -1,0 +1,483 @@
+"""The evaluation harness: any policy through the report's experiments, scored its way.
+
+``sma-gym evaluate --out DIR [--policy PATH ...] [--json]`` (or :func:`evaluate`) runs:
+
+* **Table 6.1** (§6): the ten controller configurations under standard conditions on the
+  8 mm step and the 0.1 Hz, 3 mm sine: overshoot, steady-state error, largest tracking
+  error while heating and while cooling, beside the report's numbers; plots like figs.
+  6.2, 6.3, 6.5, 6.6.
+* **Chapter 7**: PID, VSC3, VSC4 with and without feedforward under forced convection,
+  5 V, 15 V, 0.2 mm and 0.5 mm wire (not retuned).
+* **Chapter 8**: efficiency of 1 -> 7 mm steps at 5 / 7.5 / 10 / 15 V and of 1, 2, 3 s
+  ramps at 10 V, beside Tables 8.1 / 8.2.
+* **Chapter 9**: rise time and oscillation against the number of multiplexed actuators
+  (1, 8, 16), the cycling frequency (100-4000 Hz) and the supply (10, 15, 20 V), and the
+  I/O counts of Table 9.1.
+
+Every run also records the RMS tracking error and the electrical energy, over several
+seeds (sensor noise differs per seed); tables give the mean and the worst case over seeds,
+so a trained agent and a baseline are compared on the same numbers.
+
+Conventions. Error e = r - x on the true position (mm). Step: the report's 8 mm step at
+0.5 s, 6 s long; overshoot = max(x) - 8 mm after the step; steady-state error = mean e
+over the last second, reported as "oscillates" when the position still moves by more
+than 0.1 mm peak to peak there. Sine: 30 s (three periods), heating / cooling errors are
+the signed e of largest magnitude while r rises / falls, over the last two periods; RMS
+over the same window. Step RMS over the whole run. Baselines run at the report's 1 kHz;
+a trained agent at the control period it was trained with. Sensor noise: 2 um (the report's
+controllers filter their input against noise, so there should be some).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable, Sequence
+
+import numpy as np
+
+from agents.controllers import ALL_SPECS, PID, VSC3, VSC4, ControllerSpec, with_feedforward
+from agents.policies import AgentPolicy, ControllerPolicy, SelfSensingPolicy
+
+STEP_SECONDS = 6.0
+STEP_TIME_S = 0.5
+STEP_LEVEL_M = 8e-3
+SINE_SECONDS = 30.0
+SINE_WINDOW_S = (10.0, 30.0)
+EVAL_NOISE_M = 2e-6
+DEFAULT_SEEDS = (0, 1, 2)
+BASELINE_PERIOD_S = 1e-3
+OSCILLATION_P2P_M = 0.1e-3
+
+TABLE_6_1 = {
+    # controller: (overshoot, steady-state error, max error heating, max error cooling) [mm]
+    "PID": (0.757, 0.000, 0.061, -0.097),
+    "VSC1": (0.745, None, -1.050, -0.898),
+    "VSC2": (0.381, 0.046, 0.094, -0.014),
+    "VSC3": (0.000, 0.046, 0.103, -0.021),
+    "VSC4": (0.057, 0.000, 0.077, -0.219),
+    "PID + FF": (0.814, 0.000, 0.061, -0.097),
+    "VSC1 + FF": (0.717, None, -1.058, -1.382),
+    "VSC2 + FF": (0.371, 0.010, 0.059, -0.054),
+    "VSC3 + FF": (0.022, 0.010, 0.063, 0.035),
+    "VSC4 + FF": (0.130, 0.000, 0.057, 0.106),
+}
+CHAPTER_7_CONDITIONS = (
+    ("standard", "standard"),
+    ("forced convection", "forced-convection"),
+    ("5 V", "supply-5v"),
+    ("15 V", "supply-15v"),
+    ("0.2 mm wire", "wire-0.2mm"),
+    ("0.5 mm wire", "wire-0.5mm"),
+)
+CHAPTER_7_SPECS = (PID, VSC3, VSC4, with_feedforward(PID), with_feedforward(VSC3), with_feedforward(VSC4))
+CHAPTER_8_CASES = (
+    # label, preset, ramp seconds (0 = step), report efficiency [%]
+    ("step 5 V", "supply-5v", 0.0, 0.12),
+    ("step 7.5 V", "supply-7.5v", 0.0, 0.42),
+    ("step 10 V", "supply-10v", 0.0, 0.51),
+    ("step 15 V", "supply-15v", 0.0, 0.60),
+    ("ramp 1 s", "supply-10v", 1.0, 0.34),
+    ("ramp 2 s", "supply-10v", 2.0, 0.24),
+    ("ramp 3 s", "supply-10v", 3.0, 0.18),
+)
+EFFICIENCY_HOLD_S = 4.0
+EFFICIENCY_AFTER_S = 6.0
+CHAPTER_9_STEP_M = 3e-3
+CHAPTER_9_SECONDS = {1: 4.0, 8: 10.0, 16: 25.0}
+CHAPTER_9_COUNTS = ((1, 10.0), (8, 10.0), (16, 10.0), (16, 15.0), (16, 20.0), (1, 20.0), (8, 20.0))
+CHAPTER_9_FREQUENCIES = (100.0, 500.0, 1000.0, 2000.0, 3000.0, 4000.0)
+
+
+# --------------------------------------------------------------------------------------
+# Policies to evaluate
+# --------------------------------------------------------------------------------------
+@dataclass
+class PolicyEntry:
+    """A policy and the env it runs on (baselines: tracking env at 1 kHz)."""
+
+    name: str
+    make: Callable[[Any], Any]
+    env_id: str = "SMATracking-v0"
+    env_kwargs: dict = field(default_factory=lambda: {"control_period_s": BASELINE_PERIOD_S})
+    frame_stack: int = 1
+    kind: str = "baseline"
+
+
+def baseline(spec: ControllerSpec | str, self_sensing: bool = False) -> PolicyEntry:
+    from agents.controllers import spec_by_label
+
+    s = spec_by_label(spec) if isinstance(spec, str) else spec
+    if self_sensing:
+        return PolicyEntry(
+            f"{s.label} (self-sensing)",
+            lambda env, s=s: SelfSensingPolicy(s, env),
+            env_id="SMASelfSensing-v0",
+        )
+    return PolicyEntry(s.label, lambda env, s=s: ControllerPolicy(s, env))
+
+
+def agent_entry(agent: AgentPolicy) -> PolicyEntry:
+    env_id = agent.env_id
+    kwargs = {k: v for k, v in agent.env_kwargs.items() if k in ("control_period_s", "pwm_mode", "energy_weight")}
+    if env_id == "SMARobust-v0":
+        # Same observation as the tracking env; conditions are set through the model.
+        env_id = "SMATracking-v0"
+    return PolicyEntry(agent.name, lambda env, a=agent: a, env_id=env_id, env_kwargs=kwargs, frame_stack=agent.frame_stack, kind="agent")
+
+
+# --------------------------------------------------------------------------------------
+# Running episodes
+# --------------------------------------------------------------------------------------
+@dataclass
+class Trace:
+    """Recorded signals, each (steps, seeds) or (steps, seeds, actuators)."""
+
+    t: np.ndarray
+    data: dict[str, np.ndarray]
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        return self.data[key]
+
+
+_RECORD = ("position_m", "position_measured_m", "reference_m", "duty", "power_w", "electrical_energy_j", "spring_force_n", "temperature_c")
+
+
+def make_venv(entry: PolicyEntry, n_envs: int, seconds: float, env_kwargs: dict):
+    """A Gymnasium vector env of ``n_envs`` copies (the native one where there is one).
+
+    Episodes are one step longer than the run, so no autoreset happens while recording.
+    """
+    import gymnasium as gym
+
+    import sma_gym  # noqa: F401  (registers the ids)
+
+    kwargs = {**entry.env_kwargs, **env_kwargs}
+    dt = kwargs.get("control_period_s", 0.01)
+    steps = int(round(seconds / dt))
+    spec = gym.spec(entry.env_id)
+    mode = "vector_entry_point" if spec.vector_entry_point is not None else "sync"
+    venv = gym.make_vec("sma_gym:" + entry.env_id, num_envs=n_envs, vectorization_mode=mode, max_episode_steps=steps + 1, **kwargs)
+    return venv, steps, dt
+
+
+def rollout(entry: PolicyEntry, *, model: Any = "standard", reference: Any, seconds: float, seeds: Sequence[int] = DEFAULT_SEEDS, noise_m: float = EVAL_NOISE_M, env_kwargs: dict | None = None) -> Trace:
+    """Run ``entry`` once per seed on ``reference`` for ``seconds``; record the true state.
+
+    Seed i of the run is ``seeds[0] + i`` (sensor noise differs per seed). Agents trained
+    on stacked observations get them stacked by stable-baselines3's own
+    ``StackedObservations``, exactly as ``VecFrameStack`` did in training.
+    """
+    kwargs = {"model": model, "reference": reference, "position_noise_std_m": noise_m, **(env_kwargs or {})}
+    venv, steps, dt = make_venv(entry, len(seeds), seconds, kwargs)
+    policy = entry.make(venv)
+    if hasattr(policy, "reset"):
+        policy.reset()
+    obs, _ = venv.reset(seed=int(seeds[0]))
+    stacker = None
+    if entry.frame_stack > 1:
+        from stable_baselines3.common.vec_env.stacked_observations import StackedObservations
+
+        stacker = StackedObservations(len(seeds), entry.frame_stack, venv.single_observation_space)
+        obs = stacker.reset(obs)
+    record: dict[str, list] = {k: [] for k in _RECORD}
+    starts = np.ones(len(seeds), dtype=bool)
+    for _ in range(steps):
+        action, _ = policy.predict(obs, episode_start=starts, deterministic=True)
+        starts = np.zeros(len(seeds), dtype=bool)
+        obs, _, terminated, truncated, info = venv.step(action)
+        if stacker is not None:
+            obs, _ = stacker.update(obs, terminated | truncated, [{} for _ in seeds])
+        for key in _RECORD:
+            record[key].append(np.asarray(info[key], dtype=float))
+        if np.any(terminated | truncated):
+            raise RuntimeError(f"{entry.name}: an evaluation episode ended early (overheated?) at t = {info['time_s']} s")
+    venv.close()
+    data = {k: np.asarray(v, dtype=float) for k, v in record.items()}
+    return Trace(t=(np.arange(steps) + 1) * dt, data=data)
+
+
+# --------------------------------------------------------------------------------------
+# Metrics (per seed; lengths in metres)
+# --------------------------------------------------------------------------------------
+def step_metrics(trace: Trace, step_time_s: float = STEP_TIME_S, level_m: float = STEP_LEVEL_M) -> dict[str, np.ndarray]:
+    x, r, t = trace["position_m"], trace["reference_m"], trace.t
+    after = t >= step_time_s
+    tail = t >= t[-1] - 1.0
+    p2p = np.ptp(x[tail], axis=0)
+    sse = np.mean((r - x)[tail], axis=0)
+    rise = np.array([_first(t, x[:, j] >= 0.9 * level_m) - step_time_s for j in range(x.shape[1])])
+    return {
+        "overshoot_m": np.maximum(0.0, x[after].max(axis=0) - level_m),
+        "steady_state_error_m": np.where(p2p > OSCILLATION_P2P_M, np.nan, sse),
+        "oscillation_p2p_m": p2p,
+        "rise_time_s": rise,
+        "rms_error_m": np.sqrt(np.mean((r - x) ** 2, axis=0)),
+        "energy_j": trace["electrical_energy_j"][-1],
+    }
+
+
+def sine_metrics(trace: Trace, window: tuple[float, float] = SINE_WINDOW_S) -> dict[str, np.ndarray]:
+    x, r, t = trace["position_m"], trace["reference_m"], trace.t
+    w = (t >= window[0]) & (t <= window[1])
+    e = (r - x)[w]
+    rate = np.gradient(r, axis=0)[w]
+    heat = np.array([_signed_extreme(e[rate[:, j] > 0, j]) for j in range(e.shape[1])])
+    cool = np.array([_signed_extreme(e[rate[:, j] < 0, j]) for j in range(e.shape[1])])
+    energy = trace["electrical_energy_j"]
+    return {
+        "max_error_heating_m": heat,
+        "max_error_cooling_m": cool,
+        "rms_error_m": np.sqrt(np.mean(e**2, axis=0)),
+        "energy_j": energy[-1] - energy[w][0],
+    }
+
+
+def efficiency_percent(trace: Trace, start_s: float = EFFICIENCY_HOLD_S, end_level_m: float = 6.9e-3) -> np.ndarray:
+    """integral(F dx) / integral(P dt) from ``start_s`` until x first reaches ``end_level_m``."""
+    t, x, f, p = trace.t, trace["position_m"], trace["spring_force_n"], trace["power_w"]
+    dt = t[1] - t[0]
+    k0 = int(np.searchsorted(t, start_s))
+    out = []
+    for j in range(x.shape[1]):
+        crossing = np.flatnonzero(x[k0:, j] >= end_level_m)
+        if not crossing.size:
+            out.append(math.nan)  # never reached 7 mm: no stroke to rate
+            continue
+        end = k0 + crossing[0]
+        dx = np.diff(x[k0 - 1 : end + 1, j])
+        work = np.sum(0.5 * (f[k0 - 1 : end, j] + f[k0 : end + 1, j]) * dx)
+        energy = np.sum(p[k0 : end + 1, j]) * dt
+        out.append(100.0 * work / energy if energy > 0.0 else math.nan)
+    return np.array(out)
+
+
+def rise_and_oscillation(trace: Trace, level_m: float = CHAPTER_9_STEP_M) -> tuple[np.ndarray, np.ndarray]:
+    """Rise time to 90 % and peak-to-peak position over the last 2 s (actuator 0)."""
+    x = trace["position_m"]
+    x0 = x[:, :, 0] if x.ndim == 3 else x
+    t = trace.t
+    rise = np.array([_first(t, x0[:, j] >= 0.9 * level_m) for j in range(x0.shape[1])])
+    tail = t >= t[-1] - 2.0
+    return rise, np.ptp(x0[tail], axis=0)
+
+
+def _first(t: np.ndarray, mask: np.ndarray) -> float:
+    idx = np.flatnonzero(mask)
+    return float(t[idx[0]]) if idx.size else math.inf
+
+
+def _signed_extreme(e: np.ndarray) -> float:
+    return float(e[np.argmax(np.abs(e))]) if e.size else math.nan
+
+
+# --------------------------------------------------------------------------------------
+# Results
+# --------------------------------------------------------------------------------------
+LOWER_IS_BETTER = {"overshoot_m", "rms_error_m", "energy_j", "rise_time_s", "oscillation_p2p_m"}
+ABS_LOWER_IS_BETTER = {"steady_state_error_m", "max_error_heating_m", "max_error_cooling_m"}
+
+
+@dataclass
+class Record:
+    """One metric of one policy on one condition and reference (over seeds)."""
+
+    experiment: str
+    policy: str
+    condition: str
+    reference: str
+    metric: str
+    value: float
+    worst: float
+    seeds: int
+
+    def as_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        for key in ("value", "worst"):
+            if isinstance(d[key], float) and not math.isfinite(d[key]):
+                d[key] = None if math.isnan(d[key]) else ("inf" if d[key] > 0 else "-inf")
+        return d
+
+
+def _records(experiment: str, policy: str, condition: str, reference: str, metrics: dict[str, np.ndarray]) -> list[Record]:
+    out = []
+    for name, values in metrics.items():
+        v = np.asarray(values, dtype=float)
+        if np.all(np.isnan(v)):
+            mean = worst = math.nan
+        else:
+            mean = float(np.nanmean(v))
+            if name in ABS_LOWER_IS_BETTER:
+                worst = float(v[np.nanargmax(np.abs(v))]) if np.any(np.isfinite(v)) else math.nan
+            elif name == "efficiency_percent":
+                worst = float(np.nanmin(v))
+            else:
+                worst = float(np.nanmax(v))
+            if np.any(np.isnan(v)):
+                mean = worst = math.nan  # e.g. one seed oscillates: no steady state
+        out.append(Record(experiment, policy, condition, reference, name, mean, worst, len(v)))
+    return out
+
+
+@dataclass
+class Results:
+    records: list[Record] = field(default_factory=list)
+    traces: dict[tuple, Trace] = field(default_factory=dict)
+
+    def value(self, experiment: str, policy: str, condition: str, reference: str, metric: str, worst: bool = False) -> float:
+        for r in self.records:
+            if (r.experiment, r.policy, r.condition, r.reference, r.metric) == (experiment, policy, condition, reference, metric):
+                return r.worst if worst else r.value
+        raise KeyError((experiment, policy, condition, reference, metric))
+
+    def to_json(self) -> str:
+        return json.dumps([r.as_dict() for r in self.records], indent=1)
+
+
+# --------------------------------------------------------------------------------------
+# Experiments
+# --------------------------------------------------------------------------------------
+def run_table_6_1(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = DEFAULT_SEEDS, condition: str = "standard", model: Any = "standard") -> None:
+    for entry in entries:
+        step = rollout(entry, model=model, reference="report-step", seconds=STEP_SECONDS, seeds=seeds)
+        sine = rollout(entry, model=model, reference="report-sine", seconds=SINE_SECONDS, seeds=seeds)
+        results.records += _records("6.1", entry.name, condition, "step", step_metrics(step))
+        results.records += _records("6.1", entry.name, condition, "sine", sine_metrics(sine))
+        results.traces[("6.1", entry.name, condition, "step")] = step
+        results.traces[("6.1", entry.name, condition, "sine")] = sine
+
+
+def run_chapter_7(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = DEFAULT_SEEDS, conditions: Sequence[tuple[str, str]] = CHAPTER_7_CONDITIONS) -> None:
+    for label, preset_name in conditions:
+        for entry in entries:
+            step = rollout(entry, model=preset_name, reference="report-step", seconds=STEP_SECONDS, seeds=seeds)
+            sine = rollout(entry, model=preset_name, reference="report-sine", seconds=SINE_SECONDS, seeds=seeds)
+            results.records += _records("7", entry.name, label, "step", step_metrics(step))
+            results.records += _records("7", entry.name, label, "sine", sine_metrics(sine))
+            results.traces[("7", entry.name, label, "step")] = step
+            results.traces[("7", entry.name, label, "sine")] = sine
+
+
+def efficiency_reference(ramp_s: float) -> dict:
+    """Hold 1 mm, then at 4 s a step (ramp_s = 0) or a ramp of ramp_s seconds to 7 mm (§8)."""
+    if ramp_s <= 0.0:
+        return {"kind": "step", "t1_s": 0.0, "level1_m": 1e-3, "t2_s": EFFICIENCY_HOLD_S, "level2_m": 7e-3}
+    return {"kind": "ramp", "t1_s": 0.0, "level1_m": 1e-3, "d1_s": 0.5, "t2_s": EFFICIENCY_HOLD_S, "level2_m": 7e-3, "d2_s": ramp_s}
+
+
+def run_chapter_8(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = DEFAULT_SEEDS, cases: Sequence[tuple] = CHAPTER_8_CASES, noise_m: float = EVAL_NOISE_M) -> None:
+    for label, preset_name, ramp_s, _ in cases:
+        for entry in entries:
+            trace = rollout(
+                entry, model=preset_name, reference=efficiency_reference(ramp_s),
+                seconds=EFFICIENCY_HOLD_S + EFFICIENCY_AFTER_S, seeds=seeds, noise_m=noise_m,
+            )
+            results.records += _records("8", entry.name, label, "1 -> 7 mm", {"efficiency_percent": efficiency_percent(trace)})
+            results.traces[("8", entry.name, label, "1 -> 7 mm")] = trace
+
+
+def chapter_9_conditions() -> list[tuple[int, float, float]]:
+    conds = [(n, 2000.0, v) for n, v in CHAPTER_9_COUNTS]
+    conds += [(n, f, 10.0) for n in (1, 8, 16) for f in CHAPTER_9_FREQUENCIES if f != 2000.0]
+    return conds
+
+
+def chapter_9_label(n: int, f: float, v: float) -> str:
+    return f"{n} actuators, {f:g} Hz, {v:g} V"
+
+
+def run_chapter_9(entries: Sequence[PolicyEntry], results: Results, conditions: Sequence[tuple[int, float, float]] | None = None, seeds: Sequence[int] = (0,), noise_m: float = EVAL_NOISE_M) -> None:
+    """Multiplexed step of 3 mm (report's step size unstated; see sma_gym.fidelity)."""
+    for n, f, v in conditions or chapter_9_conditions():
+        for entry in entries:
+            mux = PolicyEntry(entry.name, entry.make, env_id="SMAMultiplexed-v0", env_kwargs={**entry.env_kwargs, "n_actuators": n, "cycling_frequency_hz": f}, frame_stack=entry.frame_stack, kind=entry.kind)
+            trace = rollout(
+                mux,
+                model=f"supply-{v:g}v",
+                reference={"kind": "step", "t1_s": 0.0, "level1_m": CHAPTER_9_STEP_M},
+                seconds=CHAPTER_9_SECONDS[n],
+                seeds=seeds,
+                noise_m=noise_m,
+            )
+            rise, p2p = rise_and_oscillation(trace)
+            label = chapter_9_label(n, f, v)
+            overshoot = np.maximum(0.0, trace["position_m"][..., 0].max(axis=0) - CHAPTER_9_STEP_M) if trace["position_m"].ndim == 3 else np.maximum(0.0, trace["position_m"].max(axis=0) - CHAPTER_9_STEP_M)
+            results.records += _records("9", entry.name, label, "3 mm step", {"rise_time_s": rise, "oscillation_p2p_m": p2p, "overshoot_m": overshoot})
+            results.traces[("9", entry.name, label, "3 mm step")] = trace
+
+
+def default_entries(self_sensing: bool = False) -> list[PolicyEntry]:
+    entries = [baseline(s) for s in ALL_SPECS]
+    if self_sensing:
+        entries += [baseline(PID, True), baseline(with_feedforward(VSC3), True)]
+    return entries
+
+
+EXPERIMENTS = ("6.1", "7", "8", "9", "self-sensing")
+
+
+def evaluate(
+    agents: Sequence[AgentPolicy] = (),
+    experiments: Iterable[str] = EXPERIMENTS,
+    seeds: Sequence[int] = DEFAULT_SEEDS,
+    baselines: Sequence[PolicyEntry] | None = None,
+) -> Results:
+    """Run the experiments for the baselines and the given agents."""
+    experiments = tuple(experiments)
+    for e in experiments:
+        if e not in EXPERIMENTS:
+            raise ValueError(f"experiment = {e!r}: expected one of {', '.join(EXPERIMENTS)}")
+    results = Results()
+    agent_entries = [agent_entry(a) for a in agents]
+    tracking_agents = [a for a in agent_entries if a.env_id == "SMATracking-v0"]
+    sensing_agents = [a for a in agent_entries if a.env_id == "SMASelfSensing-v0"]
+    base = list(baselines) if baselines is not None else default_entries()
+    if "6.1" in experiments:
+        run_table_6_1(base + tracking_agents, results, seeds)
+    if "7" in experiments:
+        chosen = [e for e in base if e.name in {s.label for s in CHAPTER_7_SPECS}] if baselines is None else base
+        run_chapter_7(chosen + tracking_agents, results, seeds, CHAPTER_7_CONDITIONS[1:])
+    if "8" in experiments:
+        chosen = [e for e in base if e.name in ("PID", "VSC3 + FF")] if baselines is None else base
+        run_chapter_8(chosen + tracking_agents, results, seeds)
+    if "9" in experiments:
+        chosen = [e for e in base if e.name == "PID"] if baselines is None else base
+        run_chapter_9(chosen, results)
+    if "self-sensing" in experiments:
+        # The report's self-sensing setup (§4.2): a fan; compared with the same controllers
+        # reading the position sensor under the same conditions.
+        sensing = [baseline(PID, True), baseline(with_feedforward(VSC3), True)]
+        with_sensor = [e for e in base if e.name in ("PID", "VSC3 + FF")]
+        run_table_6_1(sensing + sensing_agents + with_sensor, results, seeds, condition="self-sensing", model="forced-convection")
+    return results
+
+
+def main(
+    out: str | None,
+    policies: Sequence[str],
+    as_json: bool,
+    experiments: Sequence[str],
+    n_seeds: int,
+    baselines: Sequence[str] | None = None,
+) -> int:
+    from agents.policies import load_policy
+    from agents.report import write_report
+
+    if n_seeds < 1:
+        raise ValueError(f"seeds = {n_seeds!r}: expected an integer >= 1")
+    agents = [load_policy(p) for p in policies]
+    chosen = None if baselines is None else [baseline(b) for b in baselines]
+    results = evaluate(agents, experiments, seeds=tuple(range(n_seeds)), baselines=chosen)
+    if out:
+        paths = write_report(results, Path(out))
+    if as_json:
+        print(results.to_json())
+    else:
+        from agents.report import table_6_1_markdown
+
+        print(table_6_1_markdown(results) if "6.1" in experiments else f"{len(results.records)} metrics")
+        if out:
+            print(f"\nreport written to {Path(out).resolve() / 'evaluation.md'} ({len(paths)} files)")
+    return 0

@@ -1,0 +1,219 @@
+"""Reference policies with stable-baselines3's ``predict`` interface.
+
+>>> import gymnasium as gym
+>>> from stable_baselines3.common.evaluation import evaluate_policy
+>>> from agents import ControllerPolicy
+>>> env = gym.make("sma_gym:SMATracking-v0", control_period_s=1e-3, max_episode_steps=6000)
+>>> policy = ControllerPolicy("VSC3 + FF", env)
+>>> mean_reward, _ = evaluate_policy(policy, env, n_eval_episodes=1)   # doctest: +SKIP
+
+A :class:`ControllerPolicy` runs one of the report's controllers (:mod:`agents.controllers`)
+on what a real controller reads: the measured position, the reference and its rate (from
+the observation, scaled back to metres with the env's ``position_scale_m``) and its own time
+step (the env's ``control_period_s``; the report's loop runs at 1 kHz). It never reads the
+simulator's hidden state. Batches of observations (SB3 vector envs, the multiplexed env's
+n actuators) are handled at once; integrators and filters restart where
+``episode_start`` is True.
+
+:class:`SelfSensingPolicy` is the same controller fed by a position estimated from the
+resistance, with a calibration fitted to a heating sweep (§4.2).
+
+:func:`load_policy` opens a trained stable-baselines3 model written by ``train.py``.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.controllers import Controller, ControllerSpec, spec_by_label
+
+
+def _env_attr(env: Any, name: str) -> Any:
+    """Read an attribute of a Gymnasium env, vector env or SB3 VecEnv."""
+    if hasattr(env, "get_attr"):
+        return env.get_attr(name)[0]
+    target = getattr(env, "unwrapped", env)
+    return getattr(target, name)
+
+
+class ControllerPolicy:
+    """One of the report's controllers as a policy (see the module docstring)."""
+
+    def __init__(self, spec: ControllerSpec | str, env: Any, filter_cutoff_hz: float | None = None):
+        self.spec = spec_by_label(spec) if isinstance(spec, str) else spec
+        self.name = self.spec.label
+        self.feature_names = tuple(_env_attr(env, "feature_names"))
+        self.k = len(self.feature_names)
+        self.dt = float(_env_attr(env, "control_period_s"))
+        self.duty_range = tuple(_env_attr(env, "duty_range"))
+        self.position_scale_m = np.asarray(_env_attr(env, "position_scale_m"), dtype=float)
+        self.resistance_scale_ohm = np.asarray(_env_attr(env, "resistance_scale_ohm"), dtype=float)
+        self._filter_cutoff_hz = filter_cutoff_hz
+        self._controller: Controller | None = None
+        self._index = {name: i for i, name in enumerate(self.feature_names)}
+
+    def reset(self) -> None:
+        self._controller = None
+
+    def position_m(self, features: np.ndarray, scale: np.ndarray) -> np.ndarray:
+        """Measured position [m] from the features (shape (batch, units, k))."""
+        if "position" not in self._index:
+            raise ValueError(
+                f"{self.name}: the observation has no position feature ({self.feature_names}); "
+                "use SelfSensingPolicy with a resistance calibration"
+            )
+        return features[..., self._index["position"]] * scale
+
+    def predict(self, observation: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True):
+        obs = np.asarray(observation, dtype=float)
+        single = obs.ndim == 1
+        batch = obs.reshape(1 if single else obs.shape[0], -1, self.k)
+        n_batch, units, _ = batch.shape
+        n = n_batch * units
+        if self._controller is None or self._controller.n != n:
+            kwargs = {} if self._filter_cutoff_hz is None else {"filter_cutoff_hz": self._filter_cutoff_hz}
+            self._controller = Controller(self.spec, n=n, dt=self.dt, **kwargs)
+        elif episode_start is not None:
+            starts = np.repeat(np.asarray(episode_start, dtype=bool).reshape(-1), units)
+            if starts.any():
+                self._controller.reset(starts)
+        scale = self._scale(self.position_scale_m, n_batch, units)
+        x = self.position_m(batch, scale).reshape(n)
+        r = (batch[..., self._index["reference"]] * scale).reshape(n)
+        rate = (batch[..., self._index["reference_rate"]] * scale).reshape(n)
+        x = np.broadcast_to(x, (n,)) if np.ndim(x) == 0 else x
+        duty = self._controller(x, r, rate)
+        # The env's duty range applies as a cap (multiplexed: at most 1/n per actuator, §9.1).
+        lo, hi = self.duty_range
+        action = 2.0 * (np.clip(duty, lo, hi) - lo) / (hi - lo) - 1.0
+        action = action.reshape(n_batch, units).astype(np.float32)
+        return (action[0] if single else action), None
+
+    @staticmethod
+    def _scale(scale: np.ndarray, n_batch: int, units: int) -> np.ndarray | float:
+        s = np.asarray(scale, dtype=float)
+        if s.ndim == 0:
+            return float(s)
+        return s.reshape(-1, 1)
+
+
+@dataclass(frozen=True)
+class ResistanceCalibration:
+    """Position from resistance: x = slope * R + offset, fitted while heating (§4.2).
+
+    The report finds R(x) linear while heating above 1 mm and uses that for self-sensing;
+    below the fitted range the estimate is clipped at 0.
+    """
+
+    slope_m_per_ohm: float
+    offset_m: float
+    fit_range_m: tuple[float, float]
+    r_squared: float
+
+    def position_m(self, resistance_ohm: np.ndarray) -> np.ndarray:
+        return np.maximum(0.0, self.slope_m_per_ohm * np.asarray(resistance_ohm) + self.offset_m)
+
+    @classmethod
+    def fit(cls, model: Any = "standard", seconds: float = 40.0, duty_range: tuple[float, float] = (0.05, 0.8)) -> "ResistanceCalibration":
+        """Fit on a heating sweep: duty ramped slowly across ``duty_range`` with the position
+        sensor still fitted (a lab calibration before the sensor is removed)."""
+        from sma_gym import Simulator
+
+        sim = Simulator(model)
+        steps = int(seconds * 1000)
+        lo, hi = duty_range
+        duty = np.linspace(lo, hi, steps)
+        rec = sim.run(duty, record=("position_measured_m", "resistance_measured_ohm"))
+        x = rec["position_measured_m"][:, 0]
+        r = rec["resistance_measured_ohm"][:, 0]
+        stroke = float(np.nanmax(x))
+        band = (x > 1e-3) & (x < 0.9 * stroke) & np.isfinite(r)
+        if band.sum() < 10:
+            raise ValueError("resistance calibration: the heating sweep did not move the actuator through 1 mm")
+        slope, offset = np.polyfit(r[band], x[band], 1)
+        resid = x[band] - (slope * r[band] + offset)
+        r2 = 1.0 - resid.var() / x[band].var()
+        return cls(float(slope), float(offset), (1e-3, 0.9 * stroke), float(r2))
+
+
+class SelfSensingPolicy(ControllerPolicy):
+    """A report controller fed by the position estimated from resistance (no sensor)."""
+
+    def __init__(self, spec: ControllerSpec | str, env: Any, calibration: ResistanceCalibration | None = None, model: Any = None):
+        super().__init__(spec, env)
+        self.name = f"{self.spec.label} (self-sensing)"
+        if calibration is None:
+            if model is None:
+                model = _env_attr(env, "settings").model
+            calibration = ResistanceCalibration.fit(model, duty_range=tuple(_env_attr(env, "duty_range")))
+        self.calibration = calibration
+
+    def position_m(self, features: np.ndarray, scale: np.ndarray) -> np.ndarray:
+        r_scale = self._scale(self.resistance_scale_ohm, features.shape[0], features.shape[1])
+        resistance = r_scale * (1.0 + features[..., self._index["resistance"]] / 10.0)
+        return self.calibration.position_m(resistance)
+
+
+# --------------------------------------------------------------------------------------
+# Trained agents
+# --------------------------------------------------------------------------------------
+POLICY_CARD_SUFFIX = ".json"
+
+
+@dataclass
+class AgentPolicy:
+    """A trained stable-baselines3 model plus what is needed to evaluate it like it trained.
+
+    ``frame_stack`` is the number of stacked observations (SB3's ``VecFrameStack``) the
+    model expects; the evaluation harness wraps its env accordingly.
+    """
+
+    model: Any
+    name: str
+    env_id: str
+    env_kwargs: dict
+    frame_stack: int = 1
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        return self.model.predict(observation, state=state, episode_start=episode_start, deterministic=deterministic)
+
+    def reset(self) -> None:
+        pass
+
+
+def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
+    """Open a model saved by ``train.py`` (``<name>.zip`` with its card ``<name>.json``)."""
+    from stable_baselines3 import PPO, SAC, TD3
+
+    p = Path(path)
+    if p.suffix != ".zip":
+        p = p.with_suffix(".zip")
+    if not p.exists():
+        raise ValueError(f"policy = {str(path)!r}: no such file (expected a stable-baselines3 .zip written by train.py)")
+    card_path = p.with_suffix(POLICY_CARD_SUFFIX)
+    card: dict[str, Any] = {}
+    if card_path.exists():
+        card = json.loads(card_path.read_text())
+    algos = {"SAC": SAC, "PPO": PPO, "TD3": TD3}
+    order = [card["algo"]] if card.get("algo") in algos else list(algos)
+    last_error: Exception | None = None
+    for algo in order:
+        try:
+            model = algos[algo].load(str(p), device="cpu")
+            break
+        except Exception as err:  # noqa: BLE001 - try the next algorithm class
+            last_error = err
+    else:
+        raise ValueError(f"policy = {str(path)!r}: not a SAC, PPO or TD3 model ({last_error})")
+    return AgentPolicy(
+        model=model,
+        name=name or card.get("name") or p.stem,
+        env_id=card.get("env_id", "SMATracking-v0"),
+        env_kwargs=dict(card.get("env_kwargs", {})),
+        frame_stack=int(card.get("frame_stack", 1)),
+    )

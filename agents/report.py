@@ -1,0 +1,199 @@
+"""Markdown tables and PNG plots of an evaluation (``sma-gym evaluate --out DIR``)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from agents.evaluation import CHAPTER_8_CASES, TABLE_6_1, Results
+from sma_gym.electrical.multiplexer import io_counts
+from sma_gym.plotting import new_figure, save
+
+
+def _mm(value: float, signed: bool = True) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "osc."
+    if isinstance(value, float) and math.isinf(value):
+        return "never"
+    return f"{value * 1e3:+.3f}" if signed else f"{value * 1e3:.3f}"
+
+
+def _policies(results: Results, experiment: str) -> list[str]:
+    seen: list[str] = []
+    for r in results.records:
+        if r.experiment == experiment and r.policy not in seen:
+            seen.append(r.policy)
+    return seen
+
+
+def table_6_1_markdown(results: Results, condition: str = "standard") -> str:
+    lines = [
+        f"### Table 6.1 ({condition} conditions): simulated (report)",
+        "",
+        "| controller | overshoot [mm] | steady-state error [mm] | max error heating [mm] | max error cooling [mm] | RMS step [mm] | RMS sine [mm] | energy sine [J] | worst RMS sine over seeds [mm] |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for p in _policies(results, "6.1"):
+        try:
+            v = {m: results.value("6.1", p, condition, ref, m) for ref, m in (
+                ("step", "overshoot_m"), ("step", "steady_state_error_m"), ("sine", "max_error_heating_m"),
+                ("sine", "max_error_cooling_m"))}
+        except KeyError:
+            continue
+        rep = TABLE_6_1.get(p) if condition == "standard" else None
+        def pair(key: str, idx: int, signed: bool = True) -> str:
+            sim = _mm(v[key], signed)
+            if rep is None:
+                return sim
+            ref = "osc." if rep[idx] is None else f"{rep[idx]:+.3f}" if signed else f"{rep[idx]:.3f}"
+            return f"{sim} ({ref})"
+        lines.append(
+            f"| {p} | {pair('overshoot_m', 0, False)} | {pair('steady_state_error_m', 1)} | "
+            f"{pair('max_error_heating_m', 2)} | {pair('max_error_cooling_m', 3)} | "
+            f"{_mm(results.value('6.1', p, condition, 'step', 'rms_error_m'), False)} | "
+            f"{_mm(results.value('6.1', p, condition, 'sine', 'rms_error_m'), False)} | "
+            f"{results.value('6.1', p, condition, 'sine', 'energy_j'):.2f} | "
+            f"{_mm(results.value('6.1', p, condition, 'sine', 'rms_error_m', worst=True), False)} |"
+        )
+    return "\n".join(lines)
+
+
+def chapter_7_markdown(results: Results) -> str:
+    conditions = []
+    for r in results.records:
+        if r.experiment == "7" and r.condition not in conditions:
+            conditions.append(r.condition)
+    lines = ["### Chapter 7: robustness (not retuned)", ""]
+    for metric, ref, title in (
+        ("rms_error_m", "sine", "RMS error on the 0.1 Hz sine [mm] (worst over seeds)"),
+        ("overshoot_m", "step", "overshoot of the 8 mm step [mm]"),
+        ("steady_state_error_m", "step", "steady-state error of the 8 mm step [mm]"),
+        ("max_error_heating_m", "sine", "largest sine error while heating [mm]"),
+        ("max_error_cooling_m", "sine", "largest sine error while cooling [mm]"),
+    ):
+        lines += [f"{title}", "", "| controller | " + " | ".join(conditions) + " |", "|---|" + "---|" * len(conditions)]
+        for p in _policies(results, "7"):
+            cells = []
+            for c in conditions:
+                try:
+                    value = results.value("7", p, c, ref, metric)
+                    cell = _mm(value, metric != "rms_error_m" and metric != "overshoot_m")
+                    if metric == "rms_error_m":
+                        cell += f" ({_mm(results.value('7', p, c, ref, metric, worst=True), False)})"
+                    cells.append(cell)
+                except KeyError:
+                    cells.append("")
+            lines.append(f"| {p} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def chapter_8_markdown(results: Results) -> str:
+    policies = _policies(results, "8")
+    lines = [
+        "### Chapter 8: efficiency of 1 -> 7 mm strokes [%] (Tables 8.1, 8.2)",
+        "",
+        "| case | report | " + " | ".join(policies) + " |",
+        "|---|---|" + "---|" * len(policies),
+    ]
+    for label, _, _, report in CHAPTER_8_CASES:
+        cells = []
+        for p in policies:
+            try:
+                value = results.value("8", p, label, "1 -> 7 mm", "efficiency_percent")
+                cells.append("not reached" if math.isnan(value) else f"{value:.3f}")
+            except KeyError:
+                cells.append("")
+        lines.append(f"| {label} | {report:.2f} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def chapter_9_markdown(results: Results) -> str:
+    rows = [r for r in results.records if r.experiment == "9" and r.metric == "rise_time_s"]
+    lines = [
+        "### Chapter 9: multiplexed 3 mm step (rise time to 90 %, oscillation over the last 2 s)",
+        "",
+        "| policy | condition | rise time [s] | p2p oscillation [mm] | overshoot [mm] |",
+        "|---|---|---|---|---|",
+    ]
+    for r in rows:
+        p2p = results.value("9", r.policy, r.condition, r.reference, "oscillation_p2p_m")
+        over = results.value("9", r.policy, r.condition, r.reference, "overshoot_m")
+        rise = "never" if math.isinf(r.value) else f"{r.value:.2f}"
+        lines.append(f"| {r.policy} | {r.condition} | {rise} | {p2p * 1e3:.3f} | {over * 1e3:.3f} |")
+    lines += ["", "Table 9.1: I/O counts", "", "| actuators | AI without | AI with | DO without | DO with |", "|---|---|---|---|---|"]
+    for n in (2, 4, 8, 16):
+        c = io_counts(n)
+        lines.append(
+            f"| {n} | {c['analog_inputs_without']} | {c['analog_inputs_with']} | {c['digital_outputs_without']} | {c['digital_outputs_with']} |"
+        )
+    return "\n".join(lines)
+
+
+def _plot_responses(results: Results, experiment: str, condition: str, reference: str, policies: Sequence[str], title: str, out: Path) -> Path:
+    fig, axes = new_figure(3, 1, size=(8, 8))
+    for p in policies:
+        trace = results.traces.get((experiment, p, condition, reference))
+        if trace is None:
+            continue
+        t = trace.t
+        axes[0, 0].plot(t, trace["position_m"][:, 0] * 1e3, label=p)
+        axes[1, 0].plot(t, (trace["reference_m"][:, 0] - trace["position_m"][:, 0]) * 1e3, label=p)
+        axes[2, 0].plot(t, trace["duty"][:, 0], label=p, lw=0.8)
+        ref = trace["reference_m"][:, 0]
+    if "ref" in locals():
+        axes[0, 0].plot(t, ref * 1e3, "k--", lw=1, label="reference")
+    axes[0, 0].set(ylabel="position [mm]", title=title)
+    axes[1, 0].set(ylabel="error r - x [mm]")
+    axes[1, 0].set_ylim(-1.5, 1.5)
+    axes[2, 0].set(ylabel="duty [-]", xlabel="time [s]")
+    axes[0, 0].legend(fontsize=7)
+    return save(fig, out)
+
+
+def write_report(results: Results, out: Path) -> list[Path]:
+    out.mkdir(parents=True, exist_ok=True)
+    paths: list[Path] = []
+    sections = ["# Evaluation", "", "Simulated values, with the report's in parentheses where it gives them.", ""]
+    policies_61 = _policies(results, "6.1")
+    if policies_61:
+        sections += [table_6_1_markdown(results), ""]
+        base = [p for p in policies_61 if "FF" not in p and "self-sensing" not in p]
+        ff = [p for p in policies_61 if "FF" in p and "self-sensing" not in p]
+        agents = [p for p in policies_61 if p not in base and p not in ff and "self-sensing" not in p]
+        for refname, fig in (("step", "6_2"), ("sine", "6_3")):
+            paths.append(_plot_responses(results, "6.1", "standard", refname, base + agents, f"{refname} response (cf. fig. {fig.replace('_', '.')})", out / f"fig{fig}_{refname}.png"))
+        for refname, fig in (("step", "6_5"), ("sine", "6_6")):
+            paths.append(_plot_responses(results, "6.1", "standard", refname, ff + agents, f"{refname} response with feedforward (cf. fig. {fig.replace('_', '.')})", out / f"fig{fig}_{refname}_feedforward.png"))
+        sensing = [p for p in policies_61 if "self-sensing" in p or p in agents]
+        if any("self-sensing" in p for p in policies_61):
+            sections += [table_6_1_markdown(results, "self-sensing"), ""]
+            for refname in ("step", "sine"):
+                paths.append(_plot_responses(results, "6.1", "self-sensing", refname, sensing, f"self-sensing, {refname}", out / f"self_sensing_{refname}.png"))
+    if _policies(results, "7"):
+        sections += [chapter_7_markdown(results), ""]
+        conditions = sorted({r.condition for r in results.records if r.experiment == "7"})
+        for c in conditions:
+            slug = c.replace(" ", "_").replace(".", "")
+            paths.append(_plot_responses(results, "7", c, "step", _policies(results, "7"), f"step, {c} (cf. figs. 7.1-7.9)", out / f"chapter7_{slug}_step.png"))
+            paths.append(_plot_responses(results, "7", c, "sine", _policies(results, "7"), f"sine, {c} (cf. figs. 7.2-7.10)", out / f"chapter7_{slug}_sine.png"))
+    if _policies(results, "8"):
+        sections += [chapter_8_markdown(results), ""]
+    if _policies(results, "9"):
+        sections += [chapter_9_markdown(results), ""]
+        fig, axes = new_figure(1, 1, size=(8, 4.5))
+        for key, trace in results.traces.items():
+            if key[0] == "9" and ("2000 Hz" in key[2]):
+                x = trace["position_m"]
+                x0 = x[:, 0, 0] if x.ndim == 3 else x[:, 0]
+                axes[0, 0].plot(trace.t, x0 * 1e3, label=f"{key[1]}: {key[2]}")
+        axes[0, 0].set(xlabel="time [s]", ylabel="position [mm]", title="Multiplexed step responses (cf. figs. 9.1-9.3)")
+        axes[0, 0].legend(fontsize=7)
+        paths.append(save(fig, out / "fig9_multiplexed.png"))
+    md = out / "evaluation.md"
+    md.write_text("\n".join(sections) + "\n")
+    (out / "evaluation.json").write_text(results.to_json() + "\n")
+    return [md, out / "evaluation.json", *paths]
