@@ -14,7 +14,7 @@ import sma_gym
 import sma_gym.core.layout
 from sma_gym import ModelConfig, preset
 from sma_gym.envs.sb3 import SB3VecEnv
-from sma_gym.envs.task import FEATURES, SELF_SENSING
+from sma_gym.envs.task import FEATURES, SELF_SENSING, TRACKING
 
 IDS = sma_gym.ENV_IDS
 SINGLE_ACTUATOR_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0")
@@ -231,7 +231,7 @@ def test_robust_env_draws_conditions_from_its_ranges_and_reports_them():
 def test_multiplexed_env_caps_each_actuator_at_one_nth_and_tracks_each_reference():
     env = make("SMAMultiplexed-v0", n_actuators=8, cycling_frequency_hz=2000.0)
     obs, info = env.reset(seed=0)
-    assert obs.shape == (8 * 9,) and env.action_space.shape == (8,)
+    assert obs.shape == (8 * len(FEATURES[TRACKING]),) and env.action_space.shape == (8,)
     assert len({str(r) for r in info["references"]}) == 8
     _, _, _, _, info = env.step(np.ones(8, dtype=np.float32))
     assert np.allclose(info["duty"], 1.0 / 8)

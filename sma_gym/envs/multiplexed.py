@@ -10,7 +10,7 @@ Kwargs: ``n_actuators`` (1-16, default 4), ``cycling_frequency_hz`` (100-4000, d
 
 Action: ``Box(-1, 1, (n,), float32)``; actuator j's duty is ``(a_j + 1) / 2 / n`` (affine onto
 [0, 1/n]); out-of-range values are clipped, NaN or inf raise ``ValueError``.
-Observation: the tracking env's nine features for each actuator, concatenated (n * 9).
+Observation: the tracking env's features for each actuator, concatenated (n * 10).
 Reward: the mean over actuators of the tracking env's reward. ``terminated`` when any wire
 exceeds the overheat limit. ``info`` holds the true state of every actuator as arrays (n,).
 """

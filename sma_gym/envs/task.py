@@ -18,6 +18,8 @@ reference          r(t) / stroke                                         [-0.5, 
 reference_rate     r'(t) * 1 s / stroke                                  [-10, 10]
 preview_0.2s       r(t + 0.2 s) / stroke                                 [-0.5, 1.5]
 preview_0.5s       r(t + 0.5 s) / stroke                                 [-0.5, 1.5]
+preview_1s         r(t + 1 s) / stroke (a reversal must be anticipated by  [-0.5, 1.5]
+                   about the time it takes to cool through the hysteresis)
 last_duty          duty applied in the last step                         [0, 1]
 error              (r(t) - measured position) / stroke                   [-2, 2]
 ================== ===================================================== ============
@@ -55,6 +57,7 @@ FEATURES = {
         "reference_rate",
         "preview_0.2s",
         "preview_0.5s",
+        "preview_1s",
         "last_duty",
         "error",
     ),
@@ -67,6 +70,7 @@ FEATURES = {
         "reference_rate",
         "preview_0.2s",
         "preview_0.5s",
+        "preview_1s",
         "last_duty",
     ),
 }
@@ -80,11 +84,13 @@ _BOUNDS = {
     "reference_rate": (-10.0, 10.0),
     "preview_0.2s": (-0.5, 1.5),
     "preview_0.5s": (-0.5, 1.5),
+    "preview_1s": (-0.5, 1.5),
     "last_duty": (0.0, 1.0),
     "error": (-2.0, 2.0),
 }
 PREVIEW_1_S = 0.2
 PREVIEW_2_S = 0.5
+PREVIEW_3_S = 1.0
 
 
 def bounds(mode: int) -> tuple[np.ndarray, np.ndarray]:
@@ -162,6 +168,7 @@ def task_outputs(
         r, rate = evaluate(kind[i], ref_p[i], wp_t[i], wp_x[i], t)
         r1 = evaluate(kind[i], ref_p[i], wp_t[i], wp_x[i], t + PREVIEW_1_S)[0]
         r2 = evaluate(kind[i], ref_p[i], wp_t[i], wp_x[i], t + PREVIEW_2_S)[0]
+        r3 = evaluate(kind[i], ref_p[i], wp_t[i], wp_x[i], t + PREVIEW_3_S)[0]
         valid = 0.0
         if s[L.S_R_MEAS] == s[L.S_R_MEAS]:  # not NaN: a reading was taken
             valid = 1.0
@@ -180,11 +187,12 @@ def task_outputs(
                 rate / stroke,
                 r1 / stroke,
                 r2 / stroke,
+                r3 / stroke,
                 last_duty[i],
                 rn - x_meas,
             )
-            lows = (-0.5, -3.0, 0.0, -0.5, -10.0, -0.5, -0.5, 0.0, -2.0)
-            highs = (1.5, 3.0, 1.0, 1.5, 10.0, 1.5, 1.5, 1.0, 2.0)
+            lows = (-0.5, -3.0, 0.0, -0.5, -10.0, -0.5, -0.5, -0.5, 0.0, -2.0)
+            highs = (1.5, 3.0, 1.0, 1.5, 10.0, 1.5, 1.5, 1.5, 1.0, 2.0)
         else:
             feats = (
                 res,
@@ -195,10 +203,11 @@ def task_outputs(
                 rate / stroke,
                 r1 / stroke,
                 r2 / stroke,
+                r3 / stroke,
                 last_duty[i],
             )
-            lows = (-3.0, 0.0, -3.0, -3.0, -0.5, -10.0, -0.5, -0.5, 0.0)
-            highs = (3.0, 1.0, 3.0, 3.0, 1.5, 10.0, 1.5, 1.5, 1.0)
+            lows = (-3.0, 0.0, -3.0, -3.0, -0.5, -10.0, -0.5, -0.5, -0.5, 0.0)
+            highs = (3.0, 1.0, 3.0, 3.0, 1.5, 10.0, 1.5, 1.5, 1.5, 1.0)
         for k in range(len(feats)):
             value = feats[k]
             if value < lows[k]:
