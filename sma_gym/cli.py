@@ -27,6 +27,44 @@ def _evaluate(args: argparse.Namespace) -> int:
     return evaluation.main(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
 
 
+def _diagnose(args: argparse.Namespace) -> int:
+    import json
+    from pathlib import Path
+
+    from sma_gym.data import MeasuredDataError, load_traces
+    from sma_gym.diagnosis.workflow import diagnose, write_outputs
+    from sma_gym.model import load_model
+
+    try:
+        fit = load_traces(args.files)
+        held = load_traces(args.heldout or [])
+    except MeasuredDataError as err:
+        print(f"sma-gym diagnose: invalid measured data:\n{err}", file=sys.stderr)
+        return 2
+    nominal = load_model(args.model)
+    effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
+    result = diagnose(fit, held, nominal, effects)
+    paths = write_outputs(result, Path(args.out), fit, held, nominal)
+    if args.json:
+        from sma_gym.diagnosis.workflow import _json_default
+
+        print(json.dumps(result.as_dict(), default=_json_default))
+    else:
+        effect = result.effect if isinstance(result.effect, str) or result.effect is None else " or ".join(result.effect)
+        print(f"verdict: {result.verdict}" + (f" ({effect})" if effect else ""))
+        for data in ("fit", "heldout"):
+            for output, before in result.gap_before[data].items():
+                print(f"  {data:8s} {output:10s} RMS {before:.4g} -> {result.gap_after[data].get(output, float('nan')):.4g}")
+        print(f"report: {paths['report']}\ncorrected model: {paths['model']}")
+    return 0
+
+
+def _synth(args: argparse.Namespace) -> int:
+    from sma_gym.diagnosis import synth
+
+    return synth.main(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="sma-gym", description="SMA actuator simulator, environments and tools.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -57,6 +95,36 @@ def build_parser() -> argparse.ArgumentParser:
         help="comma-separated controllers to include, e.g. 'PID,VSC3 + FF' (default: all ten of Table 6.1)",
     )
     p.set_defaults(func=_evaluate)
+
+    p = sub.add_parser(
+        "diagnose",
+        help="find the effect the model is missing from measured traces, add it, show the gap shrink",
+        description="sma-gym diagnose FIT.csv [FIT2.csv ...] [--heldout HELD.csv ...] --out DIR",
+    )
+    p.add_argument("files", nargs="+", help="measured traces to fit (CSV, see README: measured data)")
+    p.add_argument("--heldout", nargs="+", help="measured traces never used for fitting")
+    p.add_argument("--out", required=True, help="folder for the report, plots, JSON and corrected_model.json")
+    p.add_argument("--model", default="standard", help="nominal model: a preset name or a model JSON file (default standard)")
+    p.add_argument("--effects", help="comma-separated subset of effects to consider (default: all)")
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    p.set_defaults(func=_diagnose)
+
+    p = sub.add_parser("synth", help="write a synthetic measured trace with a hidden effect (labels in a separate file)")
+    p.add_argument("--out", required=True, help="CSV file to write (with <out>.json sidecar and <stem>.labels.json)")
+    p.add_argument("--effect", default="none", help="none, or NAME or NAME:param=value,... (default none)")
+    p.add_argument("--form", default="default", help="form of the effect (default, or an alternative such as uniform)")
+    p.add_argument("--excitation", default="steps", choices=("steps", "ramps", "sine", "chirp", "random"))
+    p.add_argument("--duration", type=float, default=60.0, help="seconds (default 60)")
+    p.add_argument("--model", default="standard", help="nominal model: preset name or model JSON file")
+    p.add_argument("--perturb", type=float, default=0.05, help="relative perturbation of the nominal parameters (default 0.05)")
+    p.add_argument("--position-noise", type=float, default=5e-6, help="m (default 5e-6)")
+    p.add_argument("--position-resolution", type=float, default=1e-6, help="m (default 1e-6)")
+    p.add_argument("--resistance-noise", type=float, default=2e-3, help="ohm (default 2e-3)")
+    p.add_argument("--sample-period", type=float, default=1e-3, help="s (default 1e-3: 1 kHz)")
+    p.add_argument("--no-electrical", action="store_true", help="record position only (no R, I, V)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--overwrite", action="store_true", help="replace an existing file")
+    p.set_defaults(func=_synth)
     return parser
 
 

@@ -1,0 +1,392 @@
+"""Fitting candidate models to measured traces through the batched simulator core.
+
+A *candidate* is the nominal model plus a few parameters to fit: the nominal parameters
+that are legitimately uncertain for any real actuator (convection level, a shift of the
+transformation temperatures, the recoverable strain, the position sensor's zero and, when
+electrical signals were measured, the resistivity level) and, optionally, the parameters of
+one named effect. Fitting the nominal parameters alongside every effect is what keeps an
+effect from winning merely by absorbing a miscalibration.
+
+Residuals are the measured minus the simulated outputs (position, and resistance, current
+and voltage where measured), each divided by a robust estimate of its measurement noise,
+so outputs are weighted by how well they were measured. Fits are bounded least squares
+(scipy's trust-region reflective); the Jacobian comes from forward differences that run as
+extra columns of one batched simulation, so one iteration costs one call into the core.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Callable, Sequence
+
+import numpy as np
+
+from sma_gym.data.measured import MeasuredTrace
+from sma_gym.effects import EFFECTS, EffectSetting
+from sma_gym.model import ModelConfig
+from sma_gym.simulator import Simulator
+
+OUTPUT_COLUMNS = {
+    # output name: (trace attribute, simulator record, noise floor)
+    "position": ("position", "position_measured_m", 1e-6),
+    "resistance": ("resistance", "resistance_measured_ohm", 5e-4),
+    "current": ("current", "current_measured_a", 1e-4),
+    "voltage": ("supply_voltage", "voltage_measured_v", 1e-3),
+}
+OUTPUT_UNITS = {"position": "m", "resistance": "ohm", "current": "A", "voltage": "V"}
+
+# Effect parameters that would duplicate a fitted nominal parameter are held at off.
+DEGENERATE_WITH_NOMINAL = {("convection_change", "scale")}
+
+
+@dataclass(frozen=True)
+class FitParameter:
+    """A parameter of a candidate: name, bounds, start, and how it enters the model."""
+
+    name: str
+    unit: str
+    lower: float
+    upper: float
+    start: float
+    kind: str  # "nominal", "offset" (added to the position output) or "effect"
+    effect: str | None = None
+
+
+NOMINAL = (
+    FitParameter("convection_scale", "-", 0.5, 2.0, 1.0, "nominal"),
+    FitParameter("temperature_shift_k", "K", -10.0, 10.0, 0.0, "nominal"),
+    FitParameter("strain_scale", "-", 0.7, 1.3, 1.0, "nominal"),
+    FitParameter("position_offset_m", "m", -2e-3, 2e-3, 0.0, "offset"),
+)
+RESISTIVITY = FitParameter("resistivity_scale", "-", 0.8, 1.25, 1.0, "nominal")
+
+
+def effect_parameters(name: str) -> tuple[FitParameter, ...]:
+    effect = EFFECTS[name]
+    return tuple(
+        FitParameter(f"{name}.{p.name}", p.unit, p.lower, p.upper, p.off, "effect", name)
+        for p in effect.parameters
+        if (name, p.name) not in DEGENERATE_WITH_NOMINAL
+    )
+
+
+def starts_for(parameters: Sequence[FitParameter], warm: dict[str, float] | None = None) -> list[np.ndarray]:
+    """Starting points: the nominal parameters where ``warm`` has them (the nominal refit's
+    solution), with the effect off, and with the effect at a moderate size (half its
+    typical value), because some effects are flat at their off value (a spread is
+    symmetric in +-T)."""
+    warm = warm or {}
+    base = np.array([warm.get(p.name, p.start) for p in parameters])
+    out = [base]
+    alt = base.copy()
+    changed = False
+    for k, p in enumerate(parameters):
+        if p.kind == "effect":
+            typical = EFFECTS[p.effect].parameter(p.name.split(".", 1)[1]).typical
+            alt[k] = float(np.clip(0.5 * typical, p.lower, p.upper))
+            changed = True
+    if changed:
+        out.append(alt)
+    return out
+
+
+def apply(nominal: ModelConfig, parameters: Sequence[FitParameter], values: np.ndarray) -> tuple[ModelConfig, float]:
+    """The model for a parameter vector, and the position offset it carries."""
+    a = nominal.actuator
+    w, c = a.wire, a.convection
+    offset = 0.0
+    effects: dict[str, dict[str, float]] = {}
+    changes: dict[str, float] = {}
+    scale_conv = scale_strain = scale_rho = 1.0
+    shift = 0.0
+    for p, v in zip(parameters, values):
+        v = float(v)
+        if p.name == "convection_scale":
+            scale_conv = v
+        elif p.name == "temperature_shift_k":
+            shift = v
+        elif p.name == "strain_scale":
+            scale_strain = v
+        elif p.name == "resistivity_scale":
+            scale_rho = v
+        elif p.kind == "offset":
+            offset = v
+        elif p.kind == "effect":
+            effects.setdefault(p.effect, {})[p.name.split(".", 1)[1]] = v
+    changes = {
+        "convection.h0_w_m2_k": c.h0_w_m2_k * scale_conv,
+        "convection.h2_w_m2_k3": c.h2_w_m2_k3 * scale_conv,
+        "wire.austenite_start_c": w.austenite_start_c + shift,
+        "wire.austenite_finish_c": w.austenite_finish_c + shift,
+        "wire.martensite_start_c": w.martensite_start_c + shift,
+        "wire.martensite_finish_c": w.martensite_finish_c + shift,
+        "wire.max_transformation_strain": w.max_transformation_strain * scale_strain,
+        "wire.resistivity_martensite_ohm_m": w.resistivity_martensite_ohm_m * scale_rho,
+        "wire.resistivity_austenite_ohm_m": w.resistivity_austenite_ohm_m * scale_rho,
+    }
+    model = nominal.with_actuator(**changes)
+    for name, vals in effects.items():
+        setting = nominal.effects.get(name)
+        merged = dict(setting.values) if setting else {}
+        merged.update(vals)
+        model = model.with_effect(name, merged)
+    return model, offset
+
+
+@dataclass
+class TraceData:
+    """A measured trace prepared for simulation: duty per control step, sample indices."""
+
+    trace: MeasuredTrace
+    duty: np.ndarray
+    sample_steps: np.ndarray  # control step index whose end is each sample (or -1 before)
+    outputs: dict[str, np.ndarray]  # measured values per output
+    noise: dict[str, float]
+    mask: np.ndarray  # samples used (e.g. the fitted part of a split file)
+    rest: np.ndarray | None  # samples before the duty first rises (sets the sensor zero)
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.mask.sum())
+
+
+MIN_REST_SAMPLES = 10
+"""A file whose duty stays 0 for at least this many samples at the start reads its sensor
+zero there (measured minus simulated while at rest); the README of the real bench says the
+zero differs between runs, so a zero fitted on one file cannot serve another."""
+
+
+def noise_level(values: np.ndarray, floor: float) -> float:
+    """Robust white-noise estimate: MAD of successive differences / sqrt(2)."""
+    v = values[np.isfinite(values)]
+    if v.size < 10:
+        return floor
+    d = np.diff(v)
+    mad = 1.4826 * np.median(np.abs(d - np.median(d)))
+    return max(floor, mad / math.sqrt(2.0))
+
+
+def prepare(trace: MeasuredTrace, control_period_s: float, mask: np.ndarray | None = None) -> TraceData:
+    ends, duty = trace.duty_at_control_steps(control_period_s)
+    rel = trace.t - trace.t[0]
+    steps = np.rint(rel / control_period_s).astype(int) - 1  # sample at the end of step k
+    outputs: dict[str, np.ndarray] = {}
+    noise: dict[str, float] = {}
+    for name, (attr, _, floor) in OUTPUT_COLUMNS.items():
+        values = getattr(trace, attr)
+        if values is not None and np.isfinite(values).sum() > 10:
+            outputs[name] = values
+            noise[name] = noise_level(values, floor)
+    m = np.ones(len(trace.t), dtype=bool) if mask is None else mask
+    first_on = np.flatnonzero(trace.duty > 0)
+    rest = None
+    if first_on.size and first_on[0] >= MIN_REST_SAMPLES and np.isfinite(trace.position[: first_on[0]]).all():
+        rest = np.zeros(len(trace.t), dtype=bool)
+        rest[: first_on[0]] = True
+    return TraceData(trace, np.ascontiguousarray(duty), np.clip(steps, -1, len(duty) - 1), outputs, noise, m, rest)
+
+
+def model_for_trace(model: ModelConfig, trace: MeasuredTrace) -> ModelConfig:
+    """Apply the trace's sidecar conditions (supply, diameter, PWM, ambient) to a model."""
+    c = trace.conditions
+    changes = {}
+    if "supply_voltage_v" in c:
+        changes["driver.supply_voltage_v"] = c["supply_voltage_v"]
+    if "wire_diameter_m" in c:
+        changes["wire.diameter_m"] = c["wire_diameter_m"]
+    if "pwm_frequency_hz" in c:
+        changes["driver.pwm_frequency_hz"] = c["pwm_frequency_hz"]
+    if "ambient_temperature_c" in c:
+        changes["convection.ambient_temperature_c"] = c["ambient_temperature_c"]
+    return model.with_actuator(**changes) if changes else model
+
+
+def simulate(models: Sequence[ModelConfig], offsets: Sequence[float], data: TraceData, control_period_s: float) -> dict[str, np.ndarray]:
+    """Simulated outputs at the trace's samples, one column per model: {output: (samples, n)}."""
+    sim = Simulator([model_for_trace(m, data.trace) for m in models], control_period_s=control_period_s)
+    record = tuple(OUTPUT_COLUMNS[name][1] for name in data.outputs)
+    rec = sim.run(np.repeat(data.duty[:, None], len(models), axis=1), record=record)
+    out = {}
+    idx = data.sample_steps
+    for name in data.outputs:
+        series = rec[OUTPUT_COLUMNS[name][1]]
+        first = series[np.clip(idx, 0, None)]
+        if name == "position":
+            # Before the first control step ends the actuator is at rest.
+            first = np.where((idx < 0)[:, None], 0.0, first)
+            if data.rest is not None:
+                zero = np.mean(data.outputs["position"][data.rest, None] - first[data.rest], axis=0)
+                first = first + zero[None, :]
+            else:
+                first = first + np.asarray(offsets)[None, :]
+        out[name] = first
+    return out
+
+
+def residuals(sim: dict[str, np.ndarray], data: TraceData) -> np.ndarray:
+    """Noise-normalised residuals (measured - simulated), stacked over outputs: (m, n)."""
+    parts = []
+    for name, measured in data.outputs.items():
+        keep = data.mask & np.isfinite(measured)
+        r = (measured[keep, None] - sim[name][keep]) / data.noise[name]
+        # A reading the model cannot produce (NaN: no pulse long enough) counts as a large
+        # miss rather than disappearing from the fit.
+        parts.append(np.where(np.isfinite(r), r, 10.0))
+    return np.concatenate(parts, axis=0)
+
+
+def rms_by_output(sim: dict[str, np.ndarray], data: TraceData, mask: np.ndarray | None = None) -> dict[str, float]:
+    """Root-mean-square error per output in SI units over ``mask`` (default: the data's)."""
+    m = data.mask if mask is None else mask
+    out = {}
+    for name, measured in data.outputs.items():
+        keep = m & np.isfinite(measured) & np.isfinite(sim[name][:, 0])
+        if keep.any():
+            out[name] = float(np.sqrt(np.mean((measured[keep] - sim[name][keep, 0]) ** 2)))
+    return out
+
+
+@dataclass
+class Fit:
+    """Result of fitting one candidate."""
+
+    name: str
+    parameters: tuple[FitParameter, ...]
+    values: np.ndarray
+    stderr: np.ndarray
+    cost: float  # sum of squared normalised residuals over the fitted samples
+    n: int
+    model: ModelConfig
+    offset: float
+    success: bool = True
+    message: str = ""
+    correlation_time_samples: float = 1.0
+
+    @property
+    def k(self) -> int:
+        return len(self.parameters)
+
+    def values_by_name(self) -> dict[str, float]:
+        return {p.name: float(v) for p, v in zip(self.parameters, self.values)}
+
+    def as_dict(self) -> dict[str, dict[str, float]]:
+        return {
+            p.name: {"value": float(v), "uncertainty": float(s), "unit": p.unit}
+            for p, v, s in zip(self.parameters, self.values, self.stderr)
+        }
+
+
+class Problem:
+    """Fit data (one or more traces) and the nominal model; evaluates candidates in batches."""
+
+    def __init__(self, nominal: ModelConfig, traces: Sequence[TraceData], control_period_s: float):
+        self.nominal = nominal
+        self.traces = list(traces)
+        self.dt = control_period_s
+        self.electrical = any(name != "position" for t in traces for name in t.outputs)
+
+    def nominal_parameters(self) -> tuple[FitParameter, ...]:
+        params = tuple(p for p in NOMINAL if p.kind != "offset")
+        if any(t.rest is None for t in self.traces):
+            params += tuple(p for p in NOMINAL if p.kind == "offset")
+        return params + ((RESISTIVITY,) if self.electrical else ())
+
+    def _grid_start(self, params: Sequence[FitParameter], base: np.ndarray, k: int, size: int = 12) -> np.ndarray:
+        """The best of a grid over parameter k's range (others at ``base``)."""
+        p = params[k]
+        if p.lower < 0.0 < p.upper:
+            grid = np.linspace(p.lower, p.upper, size + 1)
+        else:
+            grid = np.r_[p.lower, p.lower + (p.upper - p.lower) * np.geomspace(1.0 / 256.0, 1.0, size)]
+        points = []
+        for value in grid:
+            point = base.copy()
+            point[k] = value
+            points.append(point)
+        costs = np.sum(self.residual_matrix(params, points) ** 2, axis=0)
+        return points[int(np.argmin(costs))]
+
+    def residual_matrix(self, parameters: Sequence[FitParameter], points: Sequence[np.ndarray]) -> np.ndarray:
+        """Residual vectors of several parameter points at once: (m, len(points))."""
+        models, offsets = zip(*(apply(self.nominal, parameters, p) for p in points))
+        blocks = [residuals(simulate(models, offsets, d, self.dt), d) for d in self.traces]
+        return np.concatenate(blocks, axis=0)
+
+    def fit(self, name: str, parameters: Sequence[FitParameter], max_nfev: int = 40, warm: dict[str, float] | None = None) -> Fit:
+        from scipy.optimize import least_squares
+
+        params = tuple(parameters)
+        lower = np.array([p.lower for p in params])
+        upper = np.array([p.upper for p in params])
+        span = upper - lower
+        best = None
+        effect_idx = [k for k, p in enumerate(params) if p.kind == "effect"]
+        starts = starts_for(params, warm)
+        if len(effect_idx) == 1:
+            # A local fit can stall in the rugged landscape of a large mismatch, so first
+            # sweep the effect's range in one batched simulation and start from the best.
+            starts = [starts[0], self._grid_start(params, starts[0], effect_idx[0])]
+        for attempt, start in enumerate(starts):
+            if attempt > 0 and best is not None and np.allclose(start, starts[0]):
+                break
+            cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+            def evaluate(u: np.ndarray, cache=cache) -> tuple[np.ndarray, np.ndarray]:
+                key = u.tobytes()
+                if key not in cache:
+                    h = 1e-3 * span
+                    # Step inwards at an upper bound so every column stays feasible.
+                    h = np.where(u + h > upper, -h, h)
+                    points = [u] + [u + np.eye(len(u))[k] * h[k] for k in range(len(u))]
+                    res = self.residual_matrix(params, points)
+                    jac = (res[:, 1:] - res[:, :1]) / h[None, :]
+                    cache.clear()
+                    cache[key] = (res[:, 0], jac)
+                return cache[key]
+
+            sol = least_squares(
+                lambda u: evaluate(u)[0],
+                np.clip(start, lower, upper),
+                jac=lambda u: evaluate(u)[1],
+                bounds=(lower, upper),
+                x_scale=span,
+                max_nfev=max_nfev,
+                method="trf",
+            )
+            if best is None or sol.cost < best.cost:
+                best = sol
+        res, jac = best.fun, best.jac
+        n = res.size
+        cost = float(np.sum(res**2))
+        tau = correlation_time(res)
+        stderr = _stderr(jac, cost, n, len(params), tau)
+        model, offset = apply(self.nominal, params, best.x)
+        return Fit(name, params, best.x, stderr, cost, n, model, offset, bool(best.success), best.message, tau)
+
+
+def correlation_time(res: np.ndarray) -> float:
+    """Integrated autocorrelation time of the residuals, in samples (>= 1).
+
+    Model-error residuals are smooth, not white: each sample does not carry independent
+    information, and an information criterion on the raw count would reward anything.
+    """
+    r = res - res.mean()
+    if r.size < 8 or not np.any(r):
+        return 1.0
+    f = np.fft.rfft(r, 2 * r.size)
+    acf = np.fft.irfft(f * np.conj(f))[: r.size]
+    acf /= acf[0]
+    below = np.flatnonzero(acf < math.exp(-1.0))
+    lag = below[0] if below.size else r.size
+    return float(max(1.0, lag))
+
+
+def _stderr(jac: np.ndarray, cost: float, n: int, k: int, tau: float) -> np.ndarray:
+    dof = max(1, n - k)
+    s2 = cost / dof
+    try:
+        cov = np.linalg.pinv(jac.T @ jac) * s2 * tau  # inflate for correlated residuals
+        return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    except np.linalg.LinAlgError:
+        return np.full(k, math.nan)

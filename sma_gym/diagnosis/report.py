@@ -1,0 +1,137 @@
+"""The diagnosis report: markdown and PNG plots (measured vs nominal vs corrected, residuals
+by regime)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from sma_gym.data.measured import MeasuredTrace
+from sma_gym.diagnosis import fitting
+from sma_gym.diagnosis.workflow import CONTROL_PERIOD_S, Diagnosis
+from sma_gym.model import ModelConfig
+from sma_gym.plotting import new_figure, save
+
+_SCALE = {"position": (1e3, "mm"), "resistance": (1.0, "ohm"), "current": (1.0, "A"), "voltage": (1.0, "V")}
+
+
+def _fmt(value: float, output: str) -> str:
+    scale, unit = _SCALE[output]
+    return f"{value * scale:.4g} {unit}"
+
+
+def write_report(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrace], heldout_traces: Sequence[MeasuredTrace], nominal: ModelConfig) -> Path:
+    plots = []
+    for label, traces in (("fit", fit_traces), ("heldout", heldout_traces)):
+        for k, trace in enumerate(traces):
+            plots.append(_plot_trace(trace, nominal, result, out / f"{label}_{k}_{Path(trace.name).stem}.png", label))
+    plots.append(_plot_regimes(result, out / "residuals_by_regime.png"))
+
+    verdict = result.verdict
+    if verdict == "effect":
+        headline = f"**Missing effect: `{result.effect}`**"
+    elif verdict == "ambiguous":
+        headline = f"**Ambiguous: {' or '.join(f'`{e}`' for e in result.effect)}**. To tell them apart: {result.separating_experiment}."
+    elif verdict == "none":
+        headline = "**No missing effect**: the nominal model, with its uncertain parameters refitted, explains the data to the noise."
+    else:
+        headline = "**Unexplained**: the residuals stay structured, but no effect of the library explains them on held-out data."
+    lines = [
+        "# Diagnosis",
+        "",
+        headline,
+        "",
+        f"Nominal model: `{nominal.name}`. Fitted: {', '.join(t.name for t in fit_traces)}. Held out: {result.held_out}.",
+        f"Corrected model: `corrected_model.json` (`gymnasium.make(id, model='corrected_model.json')`). Took {result.seconds:.0f} s.",
+        "",
+        "## The gap (RMS error, SI units)",
+        "",
+        "| data | output | nominal model | nominal refit only | corrected model | shrink |",
+        "|---|---|---|---|---|---|",
+    ]
+    for data in ("fit", "heldout"):
+        for output, before in result.gap_before[data].items():
+            after = result.gap_after[data].get(output, math.nan)
+            refit = result.gap_nominal_refit[data].get(output, math.nan)
+            shrink = 1.0 - after / before if before > 0 else 0.0
+            lines.append(f"| {data} | {output} | {_fmt(before, output)} | {_fmt(refit, output)} | {_fmt(after, output)} | {shrink * 100:.0f} % |")
+    lines += ["", "Noise (robust estimate from the data): " + ", ".join(f"{k} {_fmt(v, k)}" for k, v in result.noise.items()), ""]
+    lines += ["## Fitted parameters of the corrected model", "", "| parameter | value | uncertainty (1 sigma) | unit |", "|---|---|---|---|"]
+    for name, p in result.parameters.items():
+        lines.append(f"| {name} | {p['value']:.5g} | {p['uncertainty']:.2g} | {p['unit']} |")
+    lines += [
+        "",
+        "## Candidates",
+        "",
+        "Supported = BIC lower than the nominal refit's by more than 10 and held-out error lower by at least 10 %.",
+        "",
+        "| candidate | delta BIC | held-out normalised RMS | held-out gain | supported |",
+        "|---|---|---|---|---|",
+    ]
+    for c in result.candidates:
+        lines.append(
+            f"| {c['name']} | {c['delta_bic']:+.1f} | {c['heldout_normalised_rms']:.3g} | {c['heldout_gain'] * 100:+.1f} % | {'yes' if c['supported'] else ''} |"
+        )
+    lines += ["", "## Where the nominal model goes wrong", ""]
+    for output, regimes in result.where["most_concentrated"].items():
+        lines.append(f"- {output}: most concentrated in {', '.join(regimes)}")
+    for entry in result.where["files"]:
+        lines += ["", f"### {entry['file']}", ""]
+        for output, regimes in entry["regimes"].items():
+            lines += [f"{output}:", "", "| regime | share of samples | share of squared error | RMS |", "|---|---|---|---|"]
+            for label, st in list(regimes.items())[:8]:
+                lines.append(f"| {label} | {st['fraction_of_samples'] * 100:.0f} % | {st['share_of_squared_error'] * 100:.0f} % | {_fmt(st['rms'], output)} |")
+            windows = entry["windows"].get(output, [])
+            if windows:
+                lines.append("")
+                lines.append("Worst 1 s windows: " + ", ".join(f"{w['start_s']:.0f}-{w['end_s']:.0f} s ({_fmt(w['rms'], output)})" for w in windows))
+            lines.append("")
+    lines += ["## Plots", ""] + [f"![{p.stem}]({p.name})" for p in plots]
+    md = out / "diagnosis.md"
+    md.write_text("\n".join(lines) + "\n")
+    return md
+
+
+def _plot_trace(trace: MeasuredTrace, nominal: ModelConfig, result: Diagnosis, path: Path, label: str) -> Path:
+    data = fitting.prepare(trace, CONTROL_PERIOD_S)
+    sims = fitting.simulate([nominal, result.corrected_model], [0.0, 0.0], data, CONTROL_PERIOD_S)
+    outputs = list(data.outputs)[:2]
+    fig, axes = new_figure(len(outputs) + 1, 1, size=(11, 3.0 * (len(outputs) + 1)))
+    t = trace.t
+    for k, name in enumerate(outputs):
+        scale, unit = _SCALE[name]
+        ax = axes[k, 0]
+        ax.plot(t, data.outputs[name] * scale, "k", lw=1.0, label="measured")
+        ax.plot(t, sims[name][:, 0] * scale, "C0", lw=1.0, label="nominal")
+        ax.plot(t, sims[name][:, 1] * scale, "C3", lw=1.0, label="corrected")
+        ax.set(ylabel=f"{name} [{unit}]", title=f"{trace.name} ({label})" if k == 0 else "")
+        ax.legend(fontsize=8)
+    ax = axes[len(outputs), 0]
+    scale, unit = _SCALE["position"]
+    ax.plot(t, (data.outputs["position"] - sims["position"][:, 0]) * scale, "C0", lw=0.8, label="measured - nominal")
+    ax.plot(t, (data.outputs["position"] - sims["position"][:, 1]) * scale, "C3", lw=0.8, label="measured - corrected")
+    ax.set(xlabel="time [s]", ylabel=f"position residual [{unit}]")
+    ax.legend(fontsize=8)
+    return save(fig, path)
+
+
+def _plot_regimes(result: Diagnosis, path: Path) -> Path:
+    fig, axes = new_figure(1, 1, size=(10, 4.5))
+    ax = axes[0, 0]
+    pooled: dict[str, list[tuple[float, float]]] = {}
+    for entry in result.where["files"]:
+        for label, st in entry["regimes"].get("position", {}).items():
+            pooled.setdefault(label, []).append((st["fraction_of_samples"], st["share_of_squared_error"]))
+    labels = list(pooled)
+    frac = [np.mean([a for a, _ in pooled[k]]) for k in labels]
+    share = [np.mean([b for _, b in pooled[k]]) for k in labels]
+    idx = np.arange(len(labels))
+    ax.bar(idx - 0.2, np.array(frac) * 100, 0.4, label="share of samples")
+    ax.bar(idx + 0.2, np.array(share) * 100, 0.4, label="share of squared position error")
+    ax.set_xticks(idx, labels, rotation=35, ha="right", fontsize=7)
+    ax.set(ylabel="%", title="Where the nominal model's position error concentrates")
+    ax.legend(fontsize=8)
+    return save(fig, path)

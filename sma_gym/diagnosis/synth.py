@@ -1,0 +1,266 @@
+"""Synthetic measured traces with a hidden effect (``sma-gym synth``).
+
+A trace is recorded the way a lab would: a P controller (Kp = 1000 per metre, the report's
+gain) drives the actuator to follow an excitation reference, and the commanded duty, the
+position reading and the electrical readings are written in the measured-data format. The
+duty is kept at or above the minimum that makes resistance readable, so that R, I and V can
+be recorded (the report's self-sensing practice, §4.1).
+
+The hidden truth goes into a separate labels file (``<name>.labels.json``), which
+``diagnose`` never reads. To avoid the "inverse crime" (diagnosing data with the very model
+that produced it), the data can be generated with
+
+* an effect in an alternative form (``--form``; e.g. a uniform rather than Gaussian spread,
+  a second-order rather than first-order sensor lag),
+* nominal parameters perturbed by a few percent (``--perturb``),
+* realistic sensor noise and quantisation,
+
+and diagnosed on a held-out file with a different excitation.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from sma_gym.data.measured import MeasuredTrace, write_trace
+from sma_gym.effects import EFFECTS
+from sma_gym.model import ModelConfig, load_model
+from sma_gym.simulator import Simulator
+
+EXCITATIONS = ("steps", "ramps", "sine", "chirp", "random")
+CONTROL_PERIOD_S = 1e-3
+KP_PER_M = 1000.0
+REST_STEPS = 1000  # 1 s at rest before the excitation starts
+
+
+def excitation(kind: str, duration_s: float, stroke_m: float, rng: np.random.Generator) -> np.ndarray:
+    """Reference position [m] at each 1 ms step for the excitation ``kind``."""
+    n = int(round(duration_s / CONTROL_PERIOD_S))
+    t = np.arange(n) * CONTROL_PERIOD_S
+    lo, hi = 0.1 * stroke_m, 0.85 * stroke_m
+    if kind == "steps":
+        times, levels = [1.0], [0.0]
+        while times[-1] < duration_s:
+            times.append(times[-1] + rng.uniform(2.0, 5.0))
+            levels.append(rng.uniform(lo, hi))
+        idx = np.searchsorted(times, t, side="right") - 1
+        ref = np.asarray(levels)[np.clip(idx, 0, len(levels) - 1)]
+        ref[t < 1.0] = 0.0
+        return ref
+    if kind == "ramps":
+        corners_t, corners_x = [0.0, 1.0], [0.0, 0.0]
+        while corners_t[-1] < duration_s:
+            corners_t.append(corners_t[-1] + rng.uniform(1.5, 5.0))
+            corners_x.append(rng.uniform(lo, hi))
+        return np.interp(t, corners_t, corners_x)
+    if kind == "sine":
+        f = rng.uniform(0.08, 0.15)
+        mid, amp = 0.5 * (lo + hi), 0.5 * (hi - lo)
+        ref = mid - amp * np.cos(2.0 * math.pi * f * (t - 1.0))
+        ref[t < 1.0] = 0.0
+        return ref
+    if kind == "chirp":
+        f0, f1 = 0.03, 0.4
+        tt = np.clip(t - 1.0, 0.0, None)
+        phase = 2.0 * math.pi * (f0 * tt + 0.5 * (f1 - f0) * tt**2 / duration_s)
+        mid, amp = 0.5 * (lo + hi), 0.5 * (hi - lo)
+        ref = mid - amp * np.cos(phase)
+        ref[t < 1.0] = 0.0
+        return ref
+    if kind == "random":
+        knots_t = np.arange(0.0, duration_s + 2.0, rng.uniform(0.8, 1.5))
+        knots_x = rng.uniform(lo, hi, size=knots_t.size)
+        knots_x[:2] = 0.0
+        # Cosine interpolation: smooth, bounded rate.
+        idx = np.clip(np.searchsorted(knots_t, t, side="right") - 1, 0, knots_t.size - 2)
+        u = (t - knots_t[idx]) / (knots_t[idx + 1] - knots_t[idx])
+        c = 0.5 * (1.0 - np.cos(math.pi * u))
+        return knots_x[idx] + (knots_x[idx + 1] - knots_x[idx]) * c
+    raise ValueError(f"excitation = {kind!r}: expected one of {', '.join(EXCITATIONS)}")
+
+
+def perturb(model: ModelConfig, size: float, rng: np.random.Generator) -> tuple[ModelConfig, dict[str, float]]:
+    """Nominal parameters off by a few percent (what a real actuator's datasheet hides)."""
+    if size == 0.0:
+        return model, {}
+    a = model.actuator
+    w, c, m = a.wire, a.convection, a.mechanism
+    f = {
+        "convection_scale": float(1.0 + size * rng.uniform(-1, 1)),
+        "temperature_shift_k": float(30.0 * size * rng.uniform(-1, 1)),
+        "strain_scale": float(1.0 + 0.6 * size * rng.uniform(-1, 1)),
+        "preload_scale": float(1.0 + 2.0 * size * rng.uniform(-1, 1)),
+        "resistivity_scale": float(1.0 + 0.4 * size * rng.uniform(-1, 1)),
+        "mass_scale": float(1.0 + 2.0 * size * rng.uniform(-1, 1)),
+    }
+    shift = f["temperature_shift_k"]
+    perturbed = model.with_actuator(
+        **{
+            "convection.h0_w_m2_k": c.h0_w_m2_k * f["convection_scale"],
+            "convection.h2_w_m2_k3": c.h2_w_m2_k3 * f["convection_scale"],
+            "wire.austenite_start_c": w.austenite_start_c + shift,
+            "wire.austenite_finish_c": w.austenite_finish_c + shift,
+            "wire.martensite_start_c": w.martensite_start_c + shift,
+            "wire.martensite_finish_c": w.martensite_finish_c + shift,
+            "wire.max_transformation_strain": w.max_transformation_strain * f["strain_scale"],
+            "wire.resistivity_martensite_ohm_m": w.resistivity_martensite_ohm_m * f["resistivity_scale"],
+            "wire.resistivity_austenite_ohm_m": w.resistivity_austenite_ohm_m * f["resistivity_scale"],
+            "mechanism.spring_preload_n": m.spring_preload_n * f["preload_scale"],
+            "mechanism.moving_mass_kg": m.moving_mass_kg * f["mass_scale"],
+        }
+    )
+    return perturbed, f
+
+
+@dataclass
+class SynthSpec:
+    """Everything that defines a synthetic trace."""
+
+    model: ModelConfig
+    effect: str | None = None
+    effect_values: Mapping[str, float] | None = None
+    form: str = "default"
+    excitation: str = "steps"
+    duration_s: float = 60.0
+    position_noise_m: float = 5e-6
+    position_resolution_m: float = 1e-6
+    resistance_noise_ohm: float = 2e-3
+    electrical: bool = True
+    perturb: float = 0.0
+    sample_period_s: float = 1e-3
+    seed: int = 0
+
+    def truth(self) -> ModelConfig:
+        """The model that generates the data (before the nominal perturbation)."""
+        model = self.model
+        if self.effect is not None:
+            effect = EFFECTS[self.effect]
+            values = dict(self.effect_values or {p.name: p.typical for p in effect.parameters})
+            model = model.with_effect(self.effect, values, self.form)
+        return model.with_actuator(
+            **{
+                "sensors.position_noise_std_m": self.position_noise_m,
+                "sensors.position_resolution_m": self.position_resolution_m,
+                "sensors.resistance_noise_std_ohm": self.resistance_noise_ohm,
+                "sensors.current_noise_std_a": 0.5 * self.resistance_noise_ohm,
+                "sensors.voltage_noise_std_v": 2.0 * self.resistance_noise_ohm,
+            }
+        )
+
+
+def generate(spec: SynthSpec) -> tuple[MeasuredTrace, dict[str, Any]]:
+    """A measured trace and its labels."""
+    rng = np.random.default_rng(spec.seed)
+    truth, perturbation = perturb(spec.truth(), spec.perturb, rng)
+    stroke = min(truth.actuator.driver.end_of_travel_m, truth.actuator.wire.max_stroke_m)
+    ref = excitation(spec.excitation, spec.duration_s, stroke, rng)
+    sim = Simulator(truth, control_period_s=CONTROL_PERIOD_S, rng=rng)
+    p = truth.actuator
+    duty_min = 0.0
+    if spec.electrical:
+        # Long enough pulses for a V/I reading, with margin (§4.1).
+        duty_min = 1.2 * p.driver.settling_time_s * p.driver.pwm_frequency_hz
+    n = ref.size
+    rec = {k: np.empty(n) for k in ("duty", "position", "resistance", "current", "voltage")}
+    for k in range(n):
+        # The first second at rest: a recording starts with the sensor zero.
+        duty = 0.0 if k < REST_STEPS else min(1.0, max(duty_min, KP_PER_M * (ref[k] - sim.position_measured_m[0])))
+        sim.step(duty)
+        rec["duty"][k] = duty
+        rec["position"][k] = sim.position_measured_m[0]
+        rec["resistance"][k] = sim.resistance_measured_ohm[0]
+        rec["current"][k] = sim.current_measured_a[0]
+        rec["voltage"][k] = sim.voltage_measured_v[0]
+    every = max(1, int(round(spec.sample_period_s / CONTROL_PERIOD_S)))
+    # Sample k is taken at the end of control step k; the duty is what was commanded then
+    # (the measured-data format holds the duty from each sample to the next).
+    t = (np.arange(n) + 1) * CONTROL_PERIOD_S
+    t = np.r_[0.0, t][::every]
+    duty = np.r_[rec["duty"], rec["duty"][-1]][::every]
+    take = lambda a, first: np.r_[first, a][::every]  # noqa: E731
+    trace = MeasuredTrace(
+        path="synthetic",
+        t=t,
+        duty=duty,
+        position=take(rec["position"], 0.0),
+        resistance=take(rec["resistance"], math.nan) if spec.electrical else None,
+        current=take(rec["current"], math.nan) if spec.electrical else None,
+        supply_voltage=take(rec["voltage"], math.nan) if spec.electrical else None,
+        conditions={"supply_voltage_v": p.driver.supply_voltage_v, "pwm_frequency_hz": p.driver.pwm_frequency_hz},
+    )
+    labels = {
+        "effect": spec.effect,
+        "effect_values": dict(spec.effect_values or ({} if spec.effect is None else {q.name: q.typical for q in EFFECTS[spec.effect].parameters})),
+        "form": spec.form,
+        "perturbation": perturbation,
+        "excitation": spec.excitation,
+        "duration_s": spec.duration_s,
+        "position_noise_m": spec.position_noise_m,
+        "resistance_noise_ohm": spec.resistance_noise_ohm,
+        "seed": spec.seed,
+        "model": spec.model.actuator.name,
+    }
+    return trace, labels
+
+
+def write(spec: SynthSpec, path: Path, overwrite: bool = False) -> tuple[Path, Path]:
+    """Write ``path`` (CSV), its sidecar ``path.json`` and the labels ``<stem>.labels.json``."""
+    trace, labels = generate(spec)
+    csv_path = write_trace(path, trace, overwrite=overwrite)
+    labels_path = path.with_name(path.stem + ".labels.json")
+    labels_path.write_text(json.dumps(labels, indent=2) + "\n")
+    return csv_path, labels_path
+
+
+def parse_effect(text: str | None) -> tuple[str | None, dict[str, float] | None]:
+    """``name`` or ``name:param=value,param=value`` (values in the parameter's unit)."""
+    if not text or text == "none":
+        return None, None
+    name, _, rest = text.partition(":")
+    if name not in EFFECTS:
+        raise ValueError(f"--effect {name!r}: expected none or one of {', '.join(EFFECTS)}")
+    values: dict[str, float] = {}
+    for item in filter(None, rest.split(",")):
+        key, _, value = item.partition("=")
+        EFFECTS[name].parameter(key)
+        try:
+            values[key] = float(value)
+        except ValueError:
+            raise ValueError(f"--effect {text!r}: {value!r} is not a number for {key}") from None
+    return name, values or None
+
+
+def main(args) -> int:
+    name, values = parse_effect(args.effect)
+    model = load_model(args.model)
+    spec = SynthSpec(
+        model=model,
+        effect=name,
+        effect_values=values,
+        form=args.form,
+        excitation=args.excitation,
+        duration_s=args.duration,
+        position_noise_m=args.position_noise,
+        resistance_noise_ohm=args.resistance_noise,
+        position_resolution_m=args.position_resolution,
+        electrical=not args.no_electrical,
+        perturb=args.perturb,
+        sample_period_s=args.sample_period,
+        seed=args.seed,
+    )
+    if name is not None and args.form not in EFFECTS[name].forms:
+        raise ValueError(f"--form {args.form!r}: effect {name!r} has forms {EFFECTS[name].forms}")
+    if args.duration <= 2.0:
+        raise ValueError(f"--duration {args.duration!r}: expected more than 2 s")
+    try:
+        csv_path, labels_path = write(spec, Path(args.out), overwrite=args.overwrite)
+    except FileExistsError:
+        raise ValueError(f"--out {args.out!r} exists; pass --overwrite to replace it") from None
+    print(f"wrote {csv_path} (+ sidecar) and labels {labels_path}")
+    return 0

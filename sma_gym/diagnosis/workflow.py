@@ -1,0 +1,288 @@
+"""The diagnosis: find, name, add and show the gap shrink.
+
+1. Simulate the nominal model on the measured inputs.
+2. Localise where its residuals concentrate (:mod:`sma_gym.diagnosis.localise`).
+3. Explain: refit the uncertain nominal parameters alone (the reference, "nominal refit"),
+   then, for every effect of the library, the nominal parameters together with the effect's
+   parameters. An effect is *supported* when both hold:
+
+   * on the fitted data its BIC is lower than the nominal refit's by more than
+     ``BIC_THRESHOLD`` (10: "very strong" evidence on the Kass-Raftery scale), with BIC =
+     N_eff ln(RSS / N) + k ln(N_eff), where N_eff is the sample count divided by the
+     residuals' correlation time (smooth model errors are not independent samples);
+   * on the held-out data it lowers the normalised RMS error by at least
+     ``HELDOUT_GAIN`` (10 %).
+
+   Verdicts: ``effect`` (one supported effect clearly best on held-out data),
+   ``ambiguous`` (a second supported effect within ``AMBIGUITY_MARGIN`` (5 %) of the best on
+   held-out data: both are named, with an experiment that would separate them),
+   ``none`` (nothing supported and the refit leaves residuals near the noise), and
+   ``unexplained`` (nothing supported, yet the residuals stay structured: held-out RMS
+   more than ``STRUCTURED_RATIO`` (3) times the noise).
+4. Add the winner to the nominal model (with the refitted nominal parameters) and write it
+   as a model file the envs accept: ``gymnasium.make(id, model=path)``.
+5. Report the gap before (nominal model as given) and after (corrected model), on the fitted
+   and the held-out data, per output in SI units.
+
+Without held-out files the last ``HOLDOUT_FRACTION`` (30 %) of every fitted file is held out
+(simulated from the start, but never fitted), and the report says so.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from sma_gym.data.measured import MeasuredTrace
+from sma_gym.diagnosis import fitting
+from sma_gym.diagnosis.localise import localise, summary
+from sma_gym.effects import EFFECTS
+from sma_gym.model import ModelConfig
+
+BIC_THRESHOLD = 10.0
+HELDOUT_GAIN = 0.10
+AMBIGUITY_MARGIN = 0.05
+STRUCTURED_RATIO = 3.0
+HOLDOUT_FRACTION = 0.3
+CONTROL_PERIOD_S = 1e-3
+
+#: What would tell two candidates apart (for "ambiguous" verdicts).
+SEPARATING_EXPERIMENTS = {
+    frozenset({"sensor_lag", "abbe_offset"}): "a slow triangle wave: a lag grows with speed, an Abbe offset is a constant step at each reversal",
+    frozenset({"sensor_lag", "coulomb_friction"}): "a force or resistance measurement: friction changes the wire's stress and resistance, a sensor lag only the position reading",
+    frozenset({"abbe_offset", "coulomb_friction"}): "a resistance measurement at reversals: friction holds the wire (R keeps changing while x sticks), an Abbe error moves only the reading",
+    frozenset({"transformation_spread", "latent_heat"}): "steps at two supply voltages: latent heat delays the transformation more at low power, a spread does not depend on the heating rate",
+    frozenset({"transformation_spread", "convection_change"}): "holding at several positions: a changed convection law shifts the holding duty with temperature, a spread widens the transformation range",
+    frozenset({"latent_heat", "convection_change"}): "a fast full-power step: latent heat shows while transforming, convection mostly while holding",
+    frozenset({"supply_sag", "pulse_settling"}): "the same duty at two PWM frequencies: settling losses grow with the frequency, a supply sag does not",
+    frozenset({"supply_sag", "convection_change"}): "a voltage measurement during pulses: a sag lowers the wire voltage",
+    frozenset({"pulse_settling", "convection_change"}): "holding at two PWM frequencies: settling losses change with the frequency, convection does not",
+}
+GENERIC_EXPERIMENT = "an excitation that exercises both effects differently: several supply voltages, PWM frequencies and slow and fast motions, with resistance measured"
+
+
+@dataclass
+class Candidate:
+    name: str  # "nominal refit" or an effect name
+    fit: fitting.Fit
+    bic: float
+    heldout_score: float  # normalised RMS on held-out data
+    delta_bic: float = 0.0
+    heldout_gain: float = 0.0
+    supported: bool = False
+
+
+@dataclass
+class Diagnosis:
+    verdict: str
+    effect: str | list[str] | None
+    parameters: dict[str, Any]
+    where: dict[str, Any]
+    gap_before: dict[str, dict[str, float]]
+    gap_after: dict[str, dict[str, float]]
+    gap_nominal_refit: dict[str, dict[str, float]]
+    candidates: list[dict[str, Any]]
+    corrected_model: ModelConfig
+    held_out: str
+    separating_experiment: str | None = None
+    noise: dict[str, float] = field(default_factory=dict)
+    seconds: float = 0.0
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "verdict": self.verdict,
+            "effect": self.effect,
+            "parameters": self.parameters,
+            "where": self.where,
+            "gap_before": self.gap_before,
+            "gap_after": self.gap_after,
+            "gap_nominal_refit": self.gap_nominal_refit,
+            "held_out": self.held_out,
+            "separating_experiment": self.separating_experiment,
+            "noise": self.noise,
+            "candidates": self.candidates,
+            "seconds": self.seconds,
+        }
+
+
+def _split(trace: MeasuredTrace) -> tuple[np.ndarray, np.ndarray]:
+    cut = trace.t[0] + (1.0 - HOLDOUT_FRACTION) * (trace.t[-1] - trace.t[0])
+    fit_mask = trace.t < cut
+    return fit_mask, ~fit_mask
+
+
+def diagnose(
+    fit_traces: Sequence[MeasuredTrace],
+    heldout_traces: Sequence[MeasuredTrace] = (),
+    nominal: ModelConfig | None = None,
+    effects: Sequence[str] | None = None,
+    control_period_s: float = CONTROL_PERIOD_S,
+) -> Diagnosis:
+    """Run the workflow on measured traces (see the module docstring)."""
+    started = time.perf_counter()
+    nominal = nominal or ModelConfig()
+    names = list(EFFECTS) if effects is None else list(effects)
+    for name in names:
+        if name not in EFFECTS:
+            raise ValueError(f"effect = {name!r}: expected one of {', '.join(EFFECTS)}")
+    if not fit_traces:
+        raise ValueError("no files to fit: give at least one measured trace")
+    if heldout_traces:
+        fit_data = [fitting.prepare(t, control_period_s) for t in fit_traces]
+        held_data = [fitting.prepare(t, control_period_s) for t in heldout_traces]
+        held_note = "files: " + ", ".join(t.name for t in heldout_traces)
+    else:
+        fit_data, held_data = [], []
+        for t in fit_traces:
+            fit_mask, held_mask = _split(t)
+            fit_data.append(fitting.prepare(t, control_period_s, fit_mask))
+            held_data.append(fitting.prepare(t, control_period_s, held_mask))
+        held_note = f"the last {int(HOLDOUT_FRACTION * 100)} % of each fitted file (no held-out file given)"
+
+    problem = fitting.Problem(nominal, fit_data, control_period_s)
+    held_problem = fitting.Problem(nominal, held_data, control_period_s)
+
+    # 1-2. Nominal model on the measured input, and where it goes wrong.
+    where = _where(nominal, fit_data, control_period_s)
+
+    # 3. Nominal refit, then every effect with the nominal parameters.
+    base_params = problem.nominal_parameters()
+    refit = problem.fit("nominal refit", base_params)
+    # One effective sample count for every candidate (from the reference's residuals), so
+    # that their BICs are comparable.
+    n_eff = max(len(base_params) + 2.0, refit.n / refit.correlation_time_samples)
+    candidates = [_candidate(refit, held_problem, n_eff)]
+    for name in names:
+        params = base_params + fitting.effect_parameters(name)
+        candidates.append(_candidate(problem.fit(name, params, warm=refit.values_by_name()), held_problem, n_eff))
+    ref = candidates[0]
+    for c in candidates[1:]:
+        c.delta_bic = c.bic - ref.bic
+        c.heldout_gain = 1.0 - c.heldout_score / ref.heldout_score if ref.heldout_score > 0 else 0.0
+        c.supported = c.delta_bic < -BIC_THRESHOLD and c.heldout_gain >= HELDOUT_GAIN
+    supported = sorted([c for c in candidates[1:] if c.supported], key=lambda c: c.heldout_score)
+
+    noise_ratio = _noise_ratio(ref, held_problem)
+    separating = None
+    if not supported:
+        chosen = ref
+        verdict = "unexplained" if noise_ratio > STRUCTURED_RATIO else "none"
+        effect: str | list[str] | None = None
+    else:
+        best = supported[0]
+        rivals = [c for c in supported[1:] if c.heldout_score <= best.heldout_score * (1.0 + AMBIGUITY_MARGIN)]
+        chosen = best
+        if rivals:
+            verdict = "ambiguous"
+            effect = [best.name] + [c.name for c in rivals]
+            separating = SEPARATING_EXPERIMENTS.get(frozenset({best.name, rivals[0].name}), GENERIC_EXPERIMENT)
+        else:
+            verdict = "effect"
+            effect = best.name
+
+    corrected = chosen.fit.model
+    notes = f"sma-gym diagnose: verdict {verdict}" + (f" ({effect})" if effect else "")
+    corrected = ModelConfig(corrected.actuator, corrected.effects, notes=notes)
+
+    gap_before = _gaps(nominal, 0.0, fit_data, held_data, control_period_s)
+    gap_after = _gaps(corrected, chosen.fit.offset, fit_data, held_data, control_period_s)
+    gap_refit = _gaps(ref.fit.model, ref.fit.offset, fit_data, held_data, control_period_s)
+    noise = {}
+    for d in fit_data:
+        for k, v in d.noise.items():
+            noise[k] = max(noise.get(k, 0.0), v)
+    return Diagnosis(
+        verdict=verdict,
+        effect=effect,
+        parameters=chosen.fit.as_dict(),
+        where=where,
+        gap_before=gap_before,
+        gap_after=gap_after,
+        gap_nominal_refit=gap_refit,
+        candidates=[_describe(c) for c in candidates],
+        corrected_model=corrected,
+        held_out=held_note,
+        separating_experiment=separating,
+        noise=noise,
+        seconds=time.perf_counter() - started,
+    )
+
+
+def _candidate(fit: fitting.Fit, held: fitting.Problem, n_eff: float) -> Candidate:
+    bic = n_eff * math.log(max(fit.cost, 1e-300) / fit.n) + fit.k * math.log(n_eff)
+    return Candidate(fit.name, fit, bic, _heldout_score(fit, held))
+
+
+def _heldout_score(fit: fitting.Fit, held: fitting.Problem) -> float:
+    res = held.residual_matrix(fit.parameters, [fit.values])[:, 0]
+    return float(np.sqrt(np.mean(res**2))) if res.size else 0.0
+
+
+def _noise_ratio(ref: Candidate, held: fitting.Problem) -> float:
+    """Held-out RMS of the nominal refit in units of the noise (1 = white noise only)."""
+    return ref.heldout_score
+
+
+def _gaps(model: ModelConfig, offset: float, fit_data, held_data, dt: float) -> dict[str, dict[str, float]]:
+    out = {}
+    for label, datasets in (("fit", fit_data), ("heldout", held_data)):
+        sums: dict[str, list[float]] = {}
+        for d in datasets:
+            sim = fitting.simulate([model], [offset], d, dt)
+            for name, value in fitting.rms_by_output(sim, d).items():
+                sums.setdefault(name, []).append((value**2, d.n_samples))
+        out[label] = {
+            name: float(math.sqrt(sum(v * n for v, n in vals) / max(1, sum(n for _, n in vals)))) for name, vals in sums.items()
+        }
+    return out
+
+
+def _where(nominal: ModelConfig, fit_data, dt: float) -> dict[str, Any]:
+    per_file = []
+    for d in fit_data:
+        sim = fitting.simulate([nominal], [0.0], d, dt)
+        per_file.append(localise(nominal, d, sim, dt))
+    outputs = sorted({o for entry in per_file for o in entry["regimes"]})
+    return {
+        "files": per_file,
+        "most_concentrated": {o: summary(per_file, o) for o in outputs},
+    }
+
+
+def _describe(c: Candidate) -> dict[str, Any]:
+    return {
+        "name": c.name,
+        "parameters": c.fit.as_dict(),
+        "bic": c.bic,
+        "delta_bic": c.delta_bic,
+        "heldout_normalised_rms": c.heldout_score,
+        "heldout_gain": c.heldout_gain,
+        "supported": c.supported,
+        "fit_converged": c.fit.success,
+    }
+
+
+def write_outputs(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrace], heldout_traces: Sequence[MeasuredTrace], nominal: ModelConfig) -> dict[str, Path]:
+    """Corrected model file, markdown report, JSON and plots into ``out``."""
+    import json
+
+    from sma_gym.diagnosis.report import write_report
+
+    out.mkdir(parents=True, exist_ok=True)
+    model_path = result.corrected_model.save(out / "corrected_model.json")
+    (out / "diagnosis.json").write_text(json.dumps(result.as_dict(), indent=2, default=_json_default) + "\n")
+    report = write_report(result, out, fit_traces, heldout_traces, nominal)
+    return {"model": model_path, "json": out / "diagnosis.json", "report": report}
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, np.bool_):
+        return bool(value)
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
