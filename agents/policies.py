@@ -178,12 +178,61 @@ class AgentPolicy:
     env_id: str
     env_kwargs: dict
     frame_stack: int = 1
+    history: str = "none"
+    """``"ema"``: the model expects :class:`agents.history.HistoryFeatures` appended; the
+    policy computes them from the observations it is given, as training did."""
+    residual: str | None = None
+    """A controller label (e.g. ``"VSC3 + FF"``): the model is a residual on top of it
+    (:mod:`agents.residual`); the policy runs that controller, as training did."""
+    residual_scale: float = 0.5
+
+    def __post_init__(self) -> None:
+        self._features = None
+        self._residual = None
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        return self.model.predict(observation, state=state, episode_start=episode_start, deterministic=deterministic)
+        obs = np.asarray(observation, dtype=float)
+        single = obs.ndim == 1
+        batch = obs[None, :] if single else obs
+        fresh = self._features is None and self._residual is None
+        starts = np.ones(len(batch), dtype=bool) if episode_start is None and fresh else (
+            np.zeros(len(batch), dtype=bool) if episode_start is None else np.asarray(episode_start, dtype=bool).reshape(-1)
+        )
+        if self.residual is not None:
+            if self._residual is None:
+                from agents.residual import ResidualStep
+
+                self._residual = ResidualStep(self._probe_env(), self.residual, self.residual_scale)
+            batch = self._residual.observe(batch, starts)
+        if self.history == "ema":
+            batch = self._with_history(batch, starts)
+        action, state = self.model.predict(batch, state=state, episode_start=episode_start, deterministic=deterministic)
+        if self._residual is not None:
+            action = self._residual.action(action)
+        return (action[0] if single else action), state
+
+    def _probe_env(self):
+        import gymnasium as gym
+
+        import sma_gym  # noqa: F401
+
+        return gym.make("sma_gym:" + self.env_id, **self.env_kwargs)
+
+    def _with_history(self, batch: np.ndarray, starts: np.ndarray) -> np.ndarray:
+        from agents.history import HistoryFeatures
+
+        if self._features is None or self._features.n != batch.shape[0]:
+            env = self._probe_env()
+            names, dt = env.unwrapped.feature_names, env.unwrapped.control_period_s
+            env.close()
+            self._features = HistoryFeatures(batch.shape[0], names, dt)
+            return self._features.reset(batch)
+        out, _ = self._features.update(batch, starts)
+        return out
 
     def reset(self) -> None:
-        pass
+        self._features = None
+        self._residual = None
 
 
 def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
@@ -216,4 +265,7 @@ def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
         env_id=card.get("env_id", "SMATracking-v0"),
         env_kwargs=dict(card.get("env_kwargs", {})),
         frame_stack=int(card.get("frame_stack", 1)),
+        history=str(card.get("history", "none")),
+        residual=card.get("residual"),
+        residual_scale=float(card.get("residual_scale", 0.5)),
     )

@@ -1,0 +1,127 @@
+"""History features and residual agents: what training builds, evaluation rebuilds exactly."""
+
+import math
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import sma_gym  # noqa: F401
+from agents.history import DUTY_TIME_CONSTANTS_S, HistoryFeatures
+from agents.policies import AgentPolicy, ControllerPolicy
+from agents.residual import ResidualStep
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+import train  # noqa: E402
+
+KWARGS = {"control_period_s": 0.01}
+
+
+def test_history_features_are_exponential_averages_of_the_duty():
+    names = ("position", "last_duty")
+    dt = 0.01
+    h = HistoryFeatures(1, names, dt)
+    obs = np.array([[0.2, 0.0]])
+    h.reset(obs)
+    steps = 100
+    for _ in range(steps):
+        out, _ = h.update(np.array([[0.2, 1.0]]), np.zeros(1, dtype=bool))
+    expected = [1.0 - math.exp(-steps * dt / tau) for tau in DUTY_TIME_CONSTANTS_S]
+    np.testing.assert_allclose(out[0, 2:5], expected, rtol=1e-5)
+    assert out[0, 5] == pytest.approx(0.2)  # signal EMA of a constant signal
+    assert out[0, 6] == 0.0  # no change
+
+
+def test_history_features_restart_with_the_new_episode_and_keep_the_ended_ones():
+    h = HistoryFeatures(2, ("position", "last_duty"), 0.01)
+    h.reset(np.zeros((2, 2)))
+    for _ in range(50):
+        h.update(np.array([[0.5, 1.0], [0.5, 1.0]]), np.zeros(2, dtype=bool))
+    first_of_next = np.array([[0.0, 0.0], [0.6, 1.0]])
+    last_of_ended = np.array([0.5, 1.0])
+    out, ended = h.update(first_of_next, np.array([True, False]), {0: last_of_ended})
+    # Env 0 restarted: averages start from the new episode's observation.
+    np.testing.assert_array_equal(out[0, 2:6], [0.0, 0.0, 0.0, 0.0])
+    # Its terminal observation carries the ended episode's history, not the new one's.
+    assert np.all(ended[0][2:5] > 0.1) and ended[0][5] > 0.1
+    # Env 1 went on: its averages kept growing and the position change is seen.
+    assert np.all(out[1, 2:5] > 0.1) and out[1, 6] == pytest.approx(1.0)
+
+
+def test_residual_with_zero_correction_is_exactly_its_base_controller():
+    env = gym.make("sma_gym:SMATracking-v0", **KWARGS)
+    base = ControllerPolicy("VSC3 + FF", env)
+    residual = ResidualStep(env, "VSC3 + FF", 0.5)
+    obs, _ = env.reset(seed=3, options={"reference": "step"})
+    for t in range(300):
+        augmented = residual.observe(obs[None, :].astype(float), np.array([t == 0]))
+        expected, _ = base.predict(obs, episode_start=np.array([t == 0]))
+        action = residual.action(np.zeros((1, 1)))[0]
+        np.testing.assert_allclose(action, expected, atol=1e-6)
+        lo, hi = env.unwrapped.duty_range
+        assert augmented[0, -1] == pytest.approx(lo + (expected[0] + 1) * 0.5 * (hi - lo), abs=1e-6)
+        obs, *_ = env.step(action)
+    # A full positive correction adds residual_scale to the duty (before the duty clip).
+    residual.base_duty = np.array([0.2])
+    assert residual.action(np.ones((1, 1)))[0, 0] == pytest.approx(2 * 0.7 - 1)
+
+
+def test_residual_base_without_a_position_sensor_is_the_self_sensing_controller():
+    env = gym.make("sma_gym:SMASelfSensing-v0")
+    residual = ResidualStep(env, "PID", 0.5)
+    assert "self-sensing" in residual.policy.name
+    obs, _ = env.reset(seed=0)
+    augmented = residual.observe(obs[None, :].astype(float), np.array([True]))
+    assert augmented.shape == (1, obs.shape[0] + 1) and np.isfinite(augmented).all()
+
+
+@pytest.mark.parametrize("history,residual", [("ema", "VSC3 + FF"), ("ema", None), ("none", "PID")])
+def test_evaluation_policy_sees_exactly_what_training_saw(history, residual):
+    """AgentPolicy (raw env observations, as the harness gives them) must rebuild the
+    training wrappers' features and compose actions identically, across an episode end."""
+    from stable_baselines3 import SAC
+
+    venv = train.make_vec_env("SMATracking-v0", 2, KWARGS, 1, seed=5, history=history, residual=residual, max_episode_steps=120)
+    model = SAC("MlpPolicy", venv, seed=0, device="cpu", learning_starts=10**9)
+    agent = AgentPolicy(model, "agent", "SMATracking-v0", dict(KWARGS), history=history, residual=residual)
+    k = len(gym.make("sma_gym:SMATracking-v0", **KWARGS).unwrapped.feature_names)
+    obs = venv.reset()
+    starts = np.ones(2, dtype=bool)
+    checked_restart = False
+    for _ in range(300):
+        train_action, _ = model.predict(obs, deterministic=True)
+        eval_action, _ = agent.predict(obs[:, :k], episode_start=starts)
+        if residual is not None:
+            # Training passes the agent's correction to the residual wrapper, which composes it.
+            composed = _residual_wrapper(venv).residual.action(train_action)
+            np.testing.assert_allclose(eval_action, composed, atol=1e-5)
+        else:
+            np.testing.assert_allclose(eval_action, train_action, atol=1e-5)
+        obs, _, dones, _ = venv.step(train_action)
+        checked_restart |= bool(dones.any())
+        starts = dones
+    assert checked_restart
+
+
+def _residual_wrapper(venv):
+    from agents.residual import ResidualVecEnv
+
+    while not isinstance(venv, ResidualVecEnv):
+        venv = venv.venv
+    return venv
+
+
+def test_train_settings_come_from_the_hyperparameter_file_and_options_override():
+    run = train.settings(train.parse_args([]))
+    assert run["algo"] == "sac" and run["history"] == "ema" and run["residual"] == "VSC3 + FF"
+    run = train.settings(train.parse_args(["--residual", "none", "--history", "none", "--algo", "ppo", "--timesteps", "1000"]))
+    assert run["residual"] is None and run["history"] == "none" and run["timesteps"] == 1000 and "n_steps" in run["model_kwargs"]
+    with pytest.raises(ValueError, match="residual"):
+        train.settings(train.parse_args(["--residual", "LQR"]))
+    with pytest.raises(ValueError, match="frame-stack"):
+        train.settings(train.parse_args(["--frame-stack", "4"]))
+    run = train.settings(train.parse_args(["--frame-stack", "4", "--history", "none", "--residual", "none"]))
+    assert run["frame_stack"] == 4
