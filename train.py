@@ -165,14 +165,9 @@ def _agent_view(venv, env_id: str, env_kwargs: dict, frame_stack: int, history: 
 
         venv = make_residual_vec_env(venv, residual, residual_scale)
     if history == "ema":
-        import gymnasium as gym
-
         from agents.history import make_history_vec_env
 
-        probe = gym.make("sma_gym:" + env_id, **{k: v for k, v in env_kwargs.items() if k != "max_episode_steps"})
-        names, dt = probe.unwrapped.feature_names, probe.unwrapped.control_period_s
-        probe.close()
-        venv = make_history_vec_env(venv, names, dt)
+        venv = make_history_vec_env(venv, env_id, env_kwargs)
     if frame_stack > 1:
         venv = VecFrameStack(venv, frame_stack)
     return venv

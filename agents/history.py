@@ -43,6 +43,20 @@ class HistoryFeatures:
         self.last_signal = np.zeros(n)
         self.extra = len(DUTY_TIME_CONSTANTS_S) + 2
 
+    @classmethod
+    def for_env(cls, n: int, env_id: str, env_kwargs: dict) -> "HistoryFeatures":
+        """Features for ``n`` copies of the registered env ``env_id`` made with ``env_kwargs``
+        (its feature names and control period)."""
+        import gymnasium as gym
+
+        import sma_gym  # noqa: F401
+
+        env = gym.make("sma_gym:" + env_id, **{k: v for k, v in env_kwargs.items() if k != "max_episode_steps"})
+        try:
+            return cls(n, env.unwrapped.feature_names, env.unwrapped.control_period_s)
+        finally:
+            env.close()
+
     def observation_space(self, base: spaces.Box) -> spaces.Box:
         low = np.concatenate([base.low, np.zeros(len(DUTY_TIME_CONSTANTS_S)), [base.low[self.i_signal], -1.0]])
         high = np.concatenate([base.high, np.ones(len(DUTY_TIME_CONSTANTS_S)), [base.high[self.i_signal], 1.0]])
@@ -82,8 +96,10 @@ class HistoryFeatures:
 class HistoryVecEnv(VecEnvWrapper):
     """SB3 VecEnv wrapper appending :class:`HistoryFeatures` to the observations."""
 
-    def __init__(self, venv, feature_names: Sequence[str], dt: float):
-        self.history = HistoryFeatures(venv.num_envs, feature_names, dt)
+    def __init__(self, venv, history: HistoryFeatures):
+        if history.n != venv.num_envs:
+            raise ValueError(f"history features for {history.n} envs: expected {venv.num_envs} (the vector env's num_envs)")
+        self.history = history
         super().__init__(venv, observation_space=self.history.observation_space(venv.observation_space))
 
     def reset(self):
@@ -102,5 +118,6 @@ class HistoryVecEnv(VecEnvWrapper):
         return out, rewards, dones, infos
 
 
-def make_history_vec_env(venv, feature_names: Sequence[str], dt: float) -> HistoryVecEnv:
-    return HistoryVecEnv(venv, feature_names, dt)
+def make_history_vec_env(venv, env_id: str, env_kwargs: dict) -> HistoryVecEnv:
+    """Wrap ``venv`` (copies of ``env_id`` made with ``env_kwargs``) with history features."""
+    return HistoryVecEnv(venv, HistoryFeatures.for_env(venv.num_envs, env_id, env_kwargs))

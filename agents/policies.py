@@ -194,15 +194,20 @@ class AgentPolicy:
         obs = np.asarray(observation, dtype=float)
         single = obs.ndim == 1
         batch = obs[None, :] if single else obs
-        fresh = self._features is None and self._residual is None
-        starts = np.ones(len(batch), dtype=bool) if episode_start is None and fresh else (
-            np.zeros(len(batch), dtype=bool) if episode_start is None else np.asarray(episode_start, dtype=bool).reshape(-1)
-        )
+        if episode_start is not None:
+            starts = np.asarray(episode_start, dtype=bool).reshape(-1)
+        else:  # no flags: the first call starts an episode, later calls continue it
+            starts = np.full(len(batch), self._features is None and self._residual is None)
         if self.residual is not None:
             if self._residual is None:
+                import gymnasium as gym
+
+                import sma_gym  # noqa: F401
                 from agents.residual import ResidualStep
 
-                self._residual = ResidualStep(self._probe_env(), self.residual, self.residual_scale)
+                env = gym.make("sma_gym:" + self.env_id, **self.env_kwargs)
+                self._residual = ResidualStep(env, self.residual, self.residual_scale)
+                env.close()
             batch = self._residual.observe(batch, starts)
         if self.history == "ema":
             batch = self._with_history(batch, starts)
@@ -211,21 +216,11 @@ class AgentPolicy:
             action = self._residual.action(action)
         return (action[0] if single else action), state
 
-    def _probe_env(self):
-        import gymnasium as gym
-
-        import sma_gym  # noqa: F401
-
-        return gym.make("sma_gym:" + self.env_id, **self.env_kwargs)
-
     def _with_history(self, batch: np.ndarray, starts: np.ndarray) -> np.ndarray:
         from agents.history import HistoryFeatures
 
         if self._features is None or self._features.n != batch.shape[0]:
-            env = self._probe_env()
-            names, dt = env.unwrapped.feature_names, env.unwrapped.control_period_s
-            env.close()
-            self._features = HistoryFeatures(batch.shape[0], names, dt)
+            self._features = HistoryFeatures.for_env(batch.shape[0], self.env_id, self.env_kwargs)
             return self._features.reset(batch)
         out, _ = self._features.update(batch, starts)
         return out
