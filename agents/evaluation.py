@@ -341,23 +341,21 @@ class Results:
 # --------------------------------------------------------------------------------------
 def run_table_6_1(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = DEFAULT_SEEDS, condition: str = "standard", model: Any = "standard") -> None:
     for entry in entries:
-        step = rollout(entry, model=model, reference="report-step", seconds=STEP_SECONDS, seeds=seeds)
-        sine = rollout(entry, model=model, reference="report-sine", seconds=SINE_SECONDS, seeds=seeds)
-        results.records += _records("6.1", entry.name, condition, "step", step_metrics(step))
-        results.records += _records("6.1", entry.name, condition, "sine", sine_metrics(sine))
-        results.traces[("6.1", entry.name, condition, "step")] = step
-        results.traces[("6.1", entry.name, condition, "sine")] = sine
+        _step_and_sine("6.1", entry, model, condition, results, seeds)
 
 
 def run_chapter_7(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = DEFAULT_SEEDS, conditions: Sequence[tuple[str, str]] = CHAPTER_7_CONDITIONS) -> None:
     for label, preset_name in conditions:
         for entry in entries:
-            step = rollout(entry, model=preset_name, reference="report-step", seconds=STEP_SECONDS, seeds=seeds)
-            sine = rollout(entry, model=preset_name, reference="report-sine", seconds=SINE_SECONDS, seeds=seeds)
-            results.records += _records("7", entry.name, label, "step", step_metrics(step))
-            results.records += _records("7", entry.name, label, "sine", sine_metrics(sine))
-            results.traces[("7", entry.name, label, "step")] = step
-            results.traces[("7", entry.name, label, "sine")] = sine
+            _step_and_sine("7", entry, preset_name, label, results, seeds)
+
+
+def _step_and_sine(experiment: str, entry: PolicyEntry, model: Any, condition: str, results: Results, seeds: Sequence[int]) -> None:
+    """The report's 8 mm step and 0.1 Hz sine for one policy on one model: metrics and traces."""
+    for reference, seconds, metrics in (("step", STEP_SECONDS, step_metrics), ("sine", SINE_SECONDS, sine_metrics)):
+        trace = rollout(entry, model=model, reference=f"report-{reference}", seconds=seconds, seeds=seeds)
+        results.records += _records(experiment, entry.name, condition, reference, metrics(trace))
+        results.traces[(experiment, entry.name, condition, reference)] = trace
 
 
 def efficiency_reference(ramp_s: float) -> dict:
