@@ -38,9 +38,12 @@ import sys
 import time
 import tomllib
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from agents.evaluation import Results
 
 ROOT = Path(__file__).resolve().parent
 HYPERPARAMS = ROOT / "hyperparams"
@@ -397,7 +400,7 @@ def main(argv: list[str] | None = None) -> int:
     total = time.perf_counter() - started
     table += f"\nTraining {info['train_time_s'] / 60:.1f} min, training + evaluation {total / 60:.1f} min ({run['timesteps']} steps, {run['n_envs']} envs, seed {run['seed']}).\n"
     (out / "results.md").write_text(table)
-    (out / "goals.json").write_text(json.dumps({"goals": goals, "train_time_s": info["train_time_s"], "total_time_s": total}, indent=2))
+    (out / "goals.json").write_text(json.dumps({"goals": goals, "train_time_s": info["train_time_s"], "total_time_s": total, "validation_references": info["validation_references"]}, indent=2))
     print(table)
     print(f"run folder: {out}")
     return 0

@@ -6,8 +6,6 @@ import math
 from pathlib import Path
 from typing import Sequence
 
-import numpy as np
-
 from agents.evaluation import CHAPTER_8_CASES, TABLE_6_1, Results
 from sma_gym.electrical.multiplexer import io_counts
 from sma_gym.plotting import new_figure, save

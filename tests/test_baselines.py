@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from stable_baselines3.common.evaluation import evaluate_policy
 
-from agents import ALL_SPECS, ControllerPolicy, ResistanceCalibration, SelfSensingPolicy
+from agents import ALL_SPECS, ControllerPolicy, ResistanceCalibration
 from agents.controllers import PID, VSC3, VSC4, with_feedforward
 from agents.evaluation import (
     Results,

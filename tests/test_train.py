@@ -26,6 +26,8 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
     results = (out / "results.md").read_text()
     assert "| PID | standard |" in results and "| VSC3 + FF | standard |" in results and "## Goals" in results
     assert len(list((out / "evaluation").glob("*.png"))) >= 4
+    goals = json.loads((out / "goals.json").read_text())
+    assert goals["goals"] and len(goals["validation_references"]) == 4  # --quick validates on four
     # An ordinary SB3 zip: SAC.load opens it; its card says how it observes (history
     # features, residual base) and load_policy rebuilds that to act on the raw env.
     from stable_baselines3 import SAC

@@ -17,13 +17,13 @@ extra columns of one batched simulation, so one iteration costs one call into th
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
-from typing import Callable, Sequence
+from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
 from sma_gym.data.measured import MeasuredTrace
-from sma_gym.effects import EFFECTS, EffectSetting
+from sma_gym.effects import EFFECTS
 from sma_gym.model import ModelConfig
 from sma_gym.simulator import Simulator
 

@@ -12,7 +12,7 @@ does; this adapter only converts the info dict of arrays into SB3's list of dict
 
 from __future__ import annotations
 
-from typing import Any, Iterable, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 from gymnasium.vector import AutoresetMode
