@@ -27,6 +27,31 @@ def _policies(results: Results, experiment: str) -> list[str]:
     return seen
 
 
+def _conditions(results: Results, experiment: str) -> list[str]:
+    seen: list[str] = []
+    for r in results.records:
+        if r.experiment == experiment and r.condition not in seen:
+            seen.append(r.condition)
+    return seen
+
+
+def plot_groups(policies: Sequence[str]) -> dict[str, list[str]]:
+    """Split policy names into the report's controllers (without / with feedforward), their
+    self-sensing variants, and everything else (trained agents), which every plot shows."""
+    from agents.controllers import ALL_SPECS
+
+    labels = {s.label for s in ALL_SPECS}
+    groups: dict[str, list[str]] = {"without_ff": [], "with_ff": [], "self_sensing": [], "agents": []}
+    for p in policies:
+        if p.endswith(" (self-sensing)") and p.removesuffix(" (self-sensing)") in labels:
+            groups["self_sensing"].append(p)
+        elif p in labels:
+            groups["with_ff" if p.endswith(" + FF") else "without_ff"].append(p)
+        else:
+            groups["agents"].append(p)
+    return groups
+
+
 def table_6_1_markdown(results: Results, condition: str = "standard") -> str:
     lines = [
         f"### Table 6.1 ({condition} conditions): simulated (report)",
@@ -131,12 +156,13 @@ def chapter_9_markdown(results: Results) -> str:
     return "\n".join(lines)
 
 
-def _plot_responses(results: Results, experiment: str, condition: str, reference: str, policies: Sequence[str], title: str, out: Path) -> Path:
+def _plot_responses(results: Results, experiment: str, condition: str, reference: str, policies: Sequence[str], title: str, out: Path) -> Path | None:
+    """Position, error and duty of ``policies``; None (no file) when none of them ran there."""
+    traced = [(p, results.traces[(experiment, p, condition, reference)]) for p in policies if (experiment, p, condition, reference) in results.traces]
+    if not traced:
+        return None
     fig, axes = new_figure(3, 1, size=(8, 8))
-    for p in policies:
-        trace = results.traces.get((experiment, p, condition, reference))
-        if trace is None:
-            continue
+    for p, trace in traced:
         t = trace.t
         axes[0, 0].plot(t, trace["position_m"][:, 0] * 1e3, label=p)
         axes[1, 0].plot(t, (trace["reference_m"][:, 0] - trace["position_m"][:, 0]) * 1e3, label=p)
@@ -157,20 +183,18 @@ def write_report(results: Results, out: Path) -> list[Path]:
     paths: list[Path] = []
     sections = ["# Evaluation", "", "Simulated values, with the report's in parentheses where it gives them.", ""]
     policies_61 = _policies(results, "6.1")
-    if policies_61:
-        sections += [table_6_1_markdown(results), ""]
-        base = [p for p in policies_61 if "FF" not in p and "self-sensing" not in p]
-        ff = [p for p in policies_61 if "FF" in p and "self-sensing" not in p]
-        agents = [p for p in policies_61 if p not in base and p not in ff and "self-sensing" not in p]
+    conditions_61 = _conditions(results, "6.1")
+    for condition in conditions_61:
+        sections += [table_6_1_markdown(results, condition), ""]
+    groups = plot_groups(policies_61)
+    if "standard" in conditions_61:
         for refname, fig in (("step", "6_2"), ("sine", "6_3")):
-            paths.append(_plot_responses(results, "6.1", "standard", refname, base + agents, f"{refname} response (cf. fig. {fig.replace('_', '.')})", out / f"fig{fig}_{refname}.png"))
+            paths.append(_plot_responses(results, "6.1", "standard", refname, groups["without_ff"] + groups["agents"], f"{refname} response (cf. fig. {fig.replace('_', '.')})", out / f"fig{fig}_{refname}.png"))
         for refname, fig in (("step", "6_5"), ("sine", "6_6")):
-            paths.append(_plot_responses(results, "6.1", "standard", refname, ff + agents, f"{refname} response with feedforward (cf. fig. {fig.replace('_', '.')})", out / f"fig{fig}_{refname}_feedforward.png"))
-        sensing = [p for p in policies_61 if "self-sensing" in p or p in agents]
-        if any("self-sensing" in p for p in policies_61):
-            sections += [table_6_1_markdown(results, "self-sensing"), ""]
-            for refname in ("step", "sine"):
-                paths.append(_plot_responses(results, "6.1", "self-sensing", refname, sensing, f"self-sensing, {refname}", out / f"self_sensing_{refname}.png"))
+            paths.append(_plot_responses(results, "6.1", "standard", refname, groups["with_ff"] + groups["agents"], f"{refname} response with feedforward (cf. fig. {fig.replace('_', '.')})", out / f"fig{fig}_{refname}_feedforward.png"))
+    if "self-sensing" in conditions_61:
+        for refname in ("step", "sine"):
+            paths.append(_plot_responses(results, "6.1", "self-sensing", refname, groups["without_ff"] + groups["with_ff"] + groups["self_sensing"] + groups["agents"], f"self-sensing, {refname}", out / f"self_sensing_{refname}.png"))
     if _policies(results, "7"):
         sections += [chapter_7_markdown(results), ""]
         conditions = sorted({r.condition for r in results.records if r.experiment == "7"})
@@ -194,4 +218,4 @@ def write_report(results: Results, out: Path) -> list[Path]:
     md = out / "evaluation.md"
     md.write_text("\n".join(sections) + "\n")
     (out / "evaluation.json").write_text(results.to_json() + "\n")
-    return [md, out / "evaluation.json", *paths]
+    return [md, out / "evaluation.json", *(p for p in paths if p is not None)]

@@ -24,7 +24,6 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from sma_gym._validation import (
-    require_finite,
     require_non_negative,
     require_positive,
     require_range,

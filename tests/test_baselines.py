@@ -190,3 +190,49 @@ def test_cli_rejects_unknown_experiments_and_policies(capsys):
     assert "experiment" in capsys.readouterr().err
     assert main(["evaluate", "--policy", "/nonexistent/model.zip", "--experiments", "8"]) == 2
     assert "no such file" in capsys.readouterr().err
+
+
+def _synthetic_results(condition: str, policies: list[str]) -> Results:
+    """Records and traces as run_table_6_1 writes them, from made-up responses (no rollouts)."""
+    from agents.evaluation import SINE_SECONDS, STEP_SECONDS, Trace, _records, sine_metrics, step_metrics
+
+    results = Results()
+    for k, name in enumerate(policies):
+        for reference, seconds, metrics in (("step", STEP_SECONDS, step_metrics), ("sine", SINE_SECONDS, sine_metrics)):
+            t = np.arange(1, int(seconds / 1e-2) + 1) * 1e-2
+            r = np.where(t >= 0.5, 8e-3, 0.0) if reference == "step" else 4e-3 - 3e-3 * np.cos(2 * np.pi * 0.1 * t)
+            x = r * (1.0 - 0.01 * (k + 1))
+            data = {key: np.zeros((t.size, 1)) for key in ("position_measured_m", "duty", "power_w", "spring_force_n", "temperature_c")}
+            data.update(position_m=x[:, None], reference_m=r[:, None], electrical_energy_j=np.cumsum(np.ones_like(t))[:, None])
+            trace = Trace(t=t, data=data)
+            results.records += _records("6.1", name, condition, reference, metrics(trace))
+            results.traces[("6.1", name, condition, reference)] = trace
+    return results
+
+
+def test_report_of_a_self_sensing_evaluation_plots_the_agent_and_writes_no_empty_figures(tmp_path):
+    from agents.report import plot_groups, write_report
+
+    policies = ["PID", "VSC3 + FF", "PID (self-sensing)", "VSC3 + FF (self-sensing)", "SAC agent"]
+    groups = plot_groups(policies)
+    assert groups == {
+        "without_ff": ["PID"], "with_ff": ["VSC3 + FF"],
+        "self_sensing": ["PID (self-sensing)", "VSC3 + FF (self-sensing)"], "agents": ["SAC agent"],
+    }
+    paths = write_report(_synthetic_results("self-sensing", policies), tmp_path)
+    names = sorted(p.name for p in paths)
+    assert names == ["evaluation.json", "evaluation.md", "self_sensing_sine.png", "self_sensing_step.png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == names
+    md = (tmp_path / "evaluation.md").read_text()
+    # One table, for the condition that ran, with every policy in it (no empty "standard" table).
+    assert md.count("### Table 6.1") == 1 and "(self-sensing conditions)" in md
+    assert all(f"| {p} |" in md for p in policies)
+
+
+def test_report_of_a_standard_evaluation_has_the_reports_figures(tmp_path):
+    from agents.report import write_report
+
+    paths = write_report(_synthetic_results("standard", ["PID", "VSC3 + FF", "PPO agent"]), tmp_path)
+    assert {p.name for p in paths} >= {"fig6_2_step.png", "fig6_3_sine.png", "fig6_5_step_feedforward.png", "fig6_6_sine_feedforward.png"}
+    md = (tmp_path / "evaluation.md").read_text()
+    assert md.count("### Table 6.1") == 1 and "(0.757)" in md  # the report's PID overshoot beside ours

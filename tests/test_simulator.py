@@ -1,6 +1,5 @@
 """Behaviour of the simulator core: physics, numerics, sensors, PWM and multiplexer."""
 
-import math
 
 import numpy as np
 import pytest
