@@ -1,6 +1,5 @@
 """Behaviour of the simulator core: physics, numerics, sensors, PWM and multiplexer."""
 
-
 import numpy as np
 import pytest
 
