@@ -322,10 +322,7 @@ def compare(run: dict, out: Path) -> tuple[str, dict[str, Any]]:
 
 def summarise(run: dict, results: Results, agent: str, conditions: list[tuple[str, str]]) -> tuple[str, dict[str, Any]]:
     experiment = "7" if run["env_id"] == "SMARobust-v0" else "6.1"
-    policies = []
-    for r in results.records:
-        if r.experiment == experiment and r.policy not in policies:
-            policies.append(r.policy)
+    policies = results.distinct(experiment, "policy")
 
     def get(policy: str, condition: str, ref: str, metric: str, worst: bool = True) -> float:
         try:

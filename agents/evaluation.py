@@ -332,6 +332,14 @@ class Results:
                 return r.worst if worst else r.value
         raise KeyError((experiment, policy, condition, reference, metric))
 
+    def distinct(self, experiment: str, field: str = "policy") -> list[str]:
+        """The values of a record field (``policy``, ``condition``) in ``experiment``, in run order."""
+        seen: list[str] = []
+        for r in self.records:
+            if r.experiment == experiment and getattr(r, field) not in seen:
+                seen.append(getattr(r, field))
+        return seen
+
     def to_json(self) -> str:
         return json.dumps([r.as_dict() for r in self.records], indent=1)
 

@@ -19,17 +19,8 @@ def _mm(value: float, signed: bool = True) -> str:
     return f"{value * 1e3:+.3f}" if signed else f"{value * 1e3:.3f}"
 
 
-def _distinct(results: Results, experiment: str, field: str) -> list[str]:
-    """The values of a record field (``policy``, ``condition``) in ``experiment``, in run order."""
-    seen: list[str] = []
-    for r in results.records:
-        if r.experiment == experiment and getattr(r, field) not in seen:
-            seen.append(getattr(r, field))
-    return seen
-
-
 def _policies(results: Results, experiment: str) -> list[str]:
-    return _distinct(results, experiment, "policy")
+    return results.distinct(experiment, "policy")
 
 
 def plot_groups(policies: Sequence[str]) -> dict[str, list[str]]:
@@ -82,7 +73,7 @@ def table_6_1_markdown(results: Results, condition: str = "standard") -> str:
 
 
 def chapter_7_markdown(results: Results) -> str:
-    conditions = _distinct(results, "7", "condition")
+    conditions = results.distinct("7", "condition")
     lines = ["### Chapter 7: robustness (not retuned)", ""]
     for metric, ref, title in (
         ("rms_error_m", "sine", "RMS error on the 0.1 Hz sine [mm] (worst over seeds)"),
@@ -177,7 +168,7 @@ def write_report(results: Results, out: Path) -> list[Path]:
     paths: list[Path] = []
     sections = ["# Evaluation", "", "Simulated values, with the report's in parentheses where it gives them.", ""]
     policies_61 = _policies(results, "6.1")
-    conditions_61 = _distinct(results, "6.1", "condition")
+    conditions_61 = results.distinct("6.1", "condition")
     for condition in conditions_61:
         sections += [table_6_1_markdown(results, condition), ""]
     groups = plot_groups(policies_61)
