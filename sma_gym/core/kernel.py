@@ -33,8 +33,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from sma_gym._jit import njit
 from sma_gym.core.layout import (
     MAX_SPREAD_NODES,
     P_A_F,

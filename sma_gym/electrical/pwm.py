@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from sma_gym._jit import njit
 
 RISE_EXPONENTIAL = 0
 RISE_DELAY = 1

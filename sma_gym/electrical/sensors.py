@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from sma_gym._jit import njit
 
 ABBE_STEP = 0
 ABBE_WEAR = 1

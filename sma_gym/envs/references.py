@@ -26,7 +26,8 @@ import math
 from typing import Any, Mapping
 
 import numpy as np
-from numba import njit
+
+from sma_gym._jit import njit
 
 STEP = 0
 RAMP = 1

@@ -40,8 +40,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from sma_gym._jit import njit
 from sma_gym.core import layout as L
 from sma_gym.envs.references import evaluate
 

@@ -35,8 +35,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from sma_gym._jit import njit
 from sma_gym.physics.transformation import cosine_fraction, cosine_fraction_slope
 
 FRICTION_COULOMB = 0

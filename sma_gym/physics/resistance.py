@@ -13,7 +13,7 @@ and cooling give different R(x) slopes, as in fig. 4.9.
 
 from __future__ import annotations
 
-from numba import njit
+from sma_gym._jit import njit
 
 
 @njit(cache=True, inline="always", error_model="numpy")

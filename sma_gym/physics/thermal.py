@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from sma_gym._jit import njit
 
 CONVECTION_LAW = 0
 """h = h0 + h1 (T - T_amb) + h2 T^2 (h1 from the ``convection_change`` effect)."""

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from sma_gym._jit import njit
 
 
 @njit(cache=True, inline="always", error_model="numpy")
