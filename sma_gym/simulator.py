@@ -22,7 +22,6 @@ import numpy as np
 from sma_gym._validation import require_choice, require_range
 from sma_gym.core import layout as L
 from sma_gym.core.kernel import advance
-from sma_gym.effects import spread_nodes
 from sma_gym.electrical.multiplexer import Multiplexer
 from sma_gym.electrical.pwm import RISE_DELAY, RISE_EXPONENTIAL, SAG_QUADRATIC, SAG_RESISTOR
 from sma_gym.electrical.sensors import ABBE_STEP, ABBE_WEAR
@@ -30,6 +29,7 @@ from sma_gym.model import ModelConfig, ModelSpec, load_model
 from sma_gym.physics.mechanics import FRICTION_COULOMB, FRICTION_STRIBECK
 from sma_gym.physics.resistance import wire_resistance
 from sma_gym.physics.thermal import CONVECTION_LAW, CONVECTION_POWER
+from sma_gym.physics.transformation import hysteron_nodes
 
 PWM_MODES = ("averaged", "resolved")
 
@@ -37,6 +37,10 @@ DEFAULT_MAX_TEMPERATURE_STEP_K = 0.5
 """Largest temperature change per integration sub-step (accuracy bound, see core.kernel)."""
 
 DEFAULT_MAX_SUBSTEP_S = 10e-3
+
+DEFAULT_MAX_POSITION_STEP_M = 10e-6
+"""Largest position change per sub-step: resolves the fast motion and stress transient at the
+end-of-travel cut (at 20 V the wire arrives at ~0.2 m/s), which moves hysterons irreversibly."""
 
 _NO_NOISE = np.zeros((0, 4, 0))
 _NO_RECORD = np.zeros((0, 0, 0))
@@ -52,6 +56,7 @@ def pack_params(
     duty_max: float = 1.0,
     max_substep_s: float = DEFAULT_MAX_SUBSTEP_S,
     max_temperature_step_k: float = DEFAULT_MAX_TEMPERATURE_STEP_K,
+    max_position_step_m: float = DEFAULT_MAX_POSITION_STEP_M,
 ) -> np.ndarray:
     """Turn a model configuration into one column of the core's parameter matrix."""
     require_choice("pwm_mode", pwm_mode, PWM_MODES)
@@ -92,15 +97,24 @@ def pack_params(
     col[L.P_A_F] = w.austenite_finish_c
     col[L.P_M_S] = w.martensite_start_c
     col[L.P_M_F] = w.martensite_finish_c
-    latent = fx.value("latent_heat", "latent_heat_j_kg") / w.specific_heat_j_kg_k
+    # Nominal latent heat plus the latent_heat effect's extra (off = 0); in kelvin per unit xi.
+    latent = (w.latent_heat_j_kg + fx.value("latent_heat", "latent_heat_j_kg")) / w.specific_heat_j_kg_k
     col[L.P_LATENT] = latent
     col[L.P_LATENT_COOL] = latent * (0.7 if fx.form("latent_heat") == "asymmetric" else 1.0)
-    offsets, weights = spread_nodes(
-        fx.value("transformation_spread", "spread_k"), fx.form("transformation_spread"), L.MAX_SPREAD_NODES
+    # The transformation_spread effect adds an independent spread: variances add.
+    spread_k = math.hypot(w.transformation_spread_k, fx.value("transformation_spread", "spread_k"))
+    shift_h, shift_c, weights = hysteron_nodes(
+        spread_k,
+        w.hysteron_width_spread,
+        min(w.austenite_start_c - w.martensite_finish_c, w.austenite_finish_c - w.martensite_start_c),
+        w.minor_loop_law,
+        fx.form("transformation_spread"),
+        L.MAX_SPREAD_NODES,
     )
-    col[L.P_N_NODES] = len(offsets)
-    for k, (o, wt) in enumerate(zip(offsets, weights)):
-        col[L.P_NODE_OFFSET0 + k] = o
+    col[L.P_N_NODES] = len(weights)
+    for k, (sh, sc, wt) in enumerate(zip(shift_h, shift_c, weights)):
+        col[L.P_NODE_HEAT0 + k] = sh
+        col[L.P_NODE_COOL0 + k] = sc
         col[L.P_NODE_WEIGHT0 + k] = wt
 
     col[L.P_RHO_M] = w.resistivity_martensite_ohm_m
@@ -146,6 +160,7 @@ def pack_params(
 
     col[L.P_H_MAX] = max_substep_s
     col[L.P_DT_MAX] = max_temperature_step_k
+    col[L.P_DX_MAX] = max_position_step_m
     return col
 
 
@@ -173,9 +188,9 @@ class Simulator:
         this lets experiments batch many banks into one run.
     seed, rng:
         Randomness for sensor noise (only drawn when a noise level is non-zero).
-    max_substep_s, max_temperature_step_k:
+    max_substep_s, max_temperature_step_k, max_position_step_m:
         Accuracy bounds of the integration sub-step (see :mod:`sma_gym.core.kernel`):
-        10 ms and 0.5 K by default.
+        10 ms, 0.5 K and 10 um by default.
     """
 
     def __init__(
@@ -191,11 +206,13 @@ class Simulator:
         rng: np.random.Generator | None = None,
         max_substep_s: float = DEFAULT_MAX_SUBSTEP_S,
         max_temperature_step_k: float = DEFAULT_MAX_TEMPERATURE_STEP_K,
+        max_position_step_m: float = DEFAULT_MAX_POSITION_STEP_M,
     ) -> None:
         require_choice("pwm_mode", pwm_mode, PWM_MODES)
         self.control_period_s = require_range("control_period_s", control_period_s, 1e-6, 10.0, "s")
         require_range("max_substep_s", max_substep_s, 1e-7, 0.1, "s")
         require_range("max_temperature_step_k", max_temperature_step_k, 1e-4, 10.0, "K")
+        require_range("max_position_step_m", max_position_step_m, 1e-8, 1e-2, "m")
         if isinstance(model, (list, tuple)):
             models = [load_model(m) for m in model]
             if n is not None and n != len(models):
@@ -232,9 +249,15 @@ class Simulator:
         self.rng = rng if rng is not None else np.random.default_rng(seed)
         self.max_substep_s = max_substep_s
         self.max_temperature_step_k = max_temperature_step_k
+        self.max_position_step_m = max_position_step_m
 
         columns = []
         cache: dict[int, np.ndarray] = {}
+        self._accuracy = {
+            "max_substep_s": max_substep_s,
+            "max_temperature_step_k": max_temperature_step_k,
+            "max_position_step_m": max_position_step_m,
+        }
         for index, m in enumerate(models):
             if pwm_slots is not None:
                 period, phase, duty_max = pwm_slots[index]
@@ -244,15 +267,12 @@ class Simulator:
                     pwm_period_s=period,
                     phase=phase,
                     duty_max=duty_max,
-                    max_substep_s=max_substep_s,
-                    max_temperature_step_k=max_temperature_step_k,
+                    **self._accuracy,
                 )
             else:
                 key = id(m)
                 if key not in cache:
-                    cache[key] = pack_params(
-                        m, pwm_mode=pwm_mode, max_substep_s=max_substep_s, max_temperature_step_k=max_temperature_step_k
-                    )
+                    cache[key] = pack_params(m, pwm_mode=pwm_mode, **self._accuracy)
                 col = cache[key]
             columns.append(col)
         self.params = np.ascontiguousarray(np.stack(columns, axis=0))
@@ -325,13 +345,10 @@ class Simulator:
         if self._slots is not None:
             period, phase, duty_max = self._slots[index]
             col = pack_params(
-                m, pwm_mode=self.pwm_mode, pwm_period_s=period, phase=phase, duty_max=duty_max,
-                max_substep_s=self.max_substep_s, max_temperature_step_k=self.max_temperature_step_k,
+                m, pwm_mode=self.pwm_mode, pwm_period_s=period, phase=phase, duty_max=duty_max, **self._accuracy
             )
         else:
-            col = pack_params(
-                m, pwm_mode=self.pwm_mode, max_substep_s=self.max_substep_s, max_temperature_step_k=self.max_temperature_step_k
-            )
+            col = pack_params(m, pwm_mode=self.pwm_mode, **self._accuracy)
         self.models[index] = m
         self.params[index] = col
         self._has_noise = bool(np.any(self.params[:, [L.P_POS_NOISE, L.P_R_NOISE, L.P_I_NOISE, L.P_V_NOISE]] > 0.0))

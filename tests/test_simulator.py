@@ -26,6 +26,14 @@ def run(model="standard", duty=None, seconds=5.0, **kwargs):
     return sim, sim.run(duty, record=rec)
 
 
+PLAY = ModelConfig(
+    preset("standard").with_changes(
+        **{"wire.minor_loop_law": "play", "wire.transformation_spread_k": 0.0, "wire.hysteron_width_spread": 0.0}
+    )
+)
+"""sma-gym 0.1's hysteresis (one full-width play operator), kept as a named option."""
+
+
 def test_an_unpowered_actuator_stays_exactly_at_rest():
     sim, out = run(duty=np.zeros(2000))
     assert np.all(out["position_m"] == 0.0)
@@ -65,8 +73,9 @@ def test_duty_is_validated():
 
 
 def test_heating_below_austenite_start_lengthens_the_wire():
-    """Thermal expansion: x < 0 while the wire warms but has not started to transform."""
-    sim, out = run(duty=np.full(30000, 0.04))
+    """Thermal expansion: x < 0 while the wire warms but has not started to transform (the
+    play law without spread, whose transformation starts sharply at A_s)."""
+    sim, out = run(PLAY, duty=np.full(30000, 0.04))
     assert out["martensite_fraction"][-1, 0] == 1.0
     assert 50.0 < out["temperature_c"][-1, 0] < 75.0
     expected = -8.8e-6 * (out["temperature_c"][-1, 0] - 20.0) * 0.273
@@ -89,12 +98,12 @@ def effective_temperature(out, j=0):
     return out["temperature_c"][:, j] - out["stress_pa"][:, j] / 10.3e6
 
 
-def test_reversal_mid_transformation_continues_from_the_current_fraction():
+def test_play_law_reversal_crosses_the_whole_hysteresis_before_moving():
     """Heat to about half transformed, then cool: xi never jumps, stays put while the
     effective temperature falls through the 15 K hysteresis, then rises along the
     cooling branch."""
     duty = np.r_[np.ones(330), np.zeros(6000)]
-    _, out = run(duty=duty)
+    _, out = run(PLAY, duty=duty)
     xi = out["martensite_fraction"][:, 0]
     te = effective_temperature(out)
     k = int(np.argmax(te))
@@ -106,25 +115,66 @@ def test_reversal_mid_transformation_continues_from_the_current_fraction():
     assert xi[-1] > xi[k] + 0.3
 
 
-def test_minor_loops_close_return_point_memory():
+def test_nominal_law_moves_back_within_a_few_kelvin_of_a_reversal_and_never_jumps():
+    """The nominal (Preisach) law: after a reversal mid-transformation the narrow hysterons
+    start back at once, so xi has recovered measurably 2 K below the peak (the play law
+    needs 15 K) and keeps rising smoothly, with no jump."""
+    duty = np.r_[np.ones(330), np.zeros(6000)]
+    _, out = run(duty=duty)
+    xi = out["martensite_fraction"][:, 0]
+    te = effective_temperature(out)
+    k = int(np.argmax(te))
+    assert 0.2 < xi[k] < 0.8
+    assert np.max(np.abs(np.diff(xi))) < 0.02
+    two_below = k + int(np.argmax(te[k:] < te[k] - 2.0))
+    assert xi[two_below] > xi[k] + 0.005
+    assert np.all(np.diff(xi[k:]) >= -1e-12)  # cooling only ever adds martensite
+    assert xi[-1] > xi[k] + 0.3
+
+
+@pytest.mark.parametrize("model", ["standard", PLAY], ids=["preisach", "play"])
+def test_minor_loops_close_return_point_memory(model):
     """Heat to a reversal point, cool a few kelvin, re-heat past it: on the way back the
-    state rejoins the branch exactly where it left it (no drift)."""
-    sim = Simulator()
+    state rejoins the branch where it left it, and repeating the minor loop ends where the
+    first one ended (no drift)."""
+    sim = Simulator(model)
     rec = ("temperature_c", "stress_pa", "martensite_fraction")
     first = sim.run(np.r_[np.ones(300), np.zeros(700)], record=rec)
     te1 = effective_temperature(first)
     k = int(np.argmax(te1))
     te_rev, xi_rev = te1[k], first["martensite_fraction"][k, 0]
     assert te1[-1] < te_rev - 5.0  # cooled, inside the hysteresis
-    assert first["martensite_fraction"][-1, 0] == pytest.approx(xi_rev, abs=1e-12)
     second = sim.run(np.ones(300), record=rec)
     te2 = effective_temperature(second)
     xi2 = second["martensite_fraction"][:, 0]
-    assert np.all(xi2[te2 <= te_rev] == pytest.approx(xi_rev, abs=1e-9))
+    assert np.all(xi2[te2 <= te_rev - 0.5] >= xi_rev - 1e-9)  # below the peak: never past it
     # Just past the reversal point it continues on the branch it left.
     after = int(np.argmax(te2 > te_rev))
     assert xi2[after] == pytest.approx(xi_rev, abs=0.02)
     assert xi2[-1] < xi_rev - 0.1
+    # A periodic minor loop (0.5 s heating, 0.5 s cooling about a holding point): once the
+    # temperature cycle has settled, xi repeats from cycle to cycle instead of drifting.
+    loop = np.r_[np.full(500, 0.12), np.zeros(500)]
+    ends = [sim.run(loop, record=("martensite_fraction",))["martensite_fraction"][-1, 0] for _ in range(150)]
+    # The approach is the temperature's (geometric, tau ~ 5 s), then nothing moves.
+    assert np.ptp(ends[-5:]) < 1e-6
+    assert abs(ends[-1] - ends[-40]) < 1e-5
+
+
+def test_the_hysterons_span_the_spread_and_keep_heating_above_cooling():
+    """The nominal set of hysterons: centres spread with the wire's standard deviation,
+    widths from nearly zero to the full 15 K, every heating branch above its cooling branch."""
+    from sma_gym.physics.transformation import hysteron_nodes
+
+    shift_h, shift_c, weights = hysteron_nodes(6.0, 1.0, 15.0)
+    centres = (np.array(shift_h) + np.array(shift_c)) / 2
+    narrowing = np.array(shift_c) - np.array(shift_h)
+    assert np.sum(weights) == pytest.approx(1.0)
+    assert np.sqrt(np.sum(np.array(weights) * centres**2)) == pytest.approx(6.0)
+    assert narrowing.min() < 2.0 and narrowing.max() > 12.0 and np.all(narrowing <= 15.0)
+    assert hysteron_nodes(0.0, 0.0, 15.0, law="play") == ([0.0], [0.0], [1.0])
+    with pytest.raises(ValueError, match="minor-loop law"):
+        hysteron_nodes(6.0, 1.0, 15.0, law="duhem")
 
 
 def test_pwm_ripple_does_not_make_xi_ratchet():
@@ -146,23 +196,62 @@ def test_pwm_ripple_does_not_make_xi_ratchet():
 
 
 def test_integration_converges_at_first_order_and_is_accurate_at_the_default_step():
-    """Refine both accuracy bounds (sub-step cap and temperature change per sub-step)
-    together: the error against a fine reference halves each time, and at the defaults it
+    """Refine the accuracy bounds (sub-step cap, temperature and position change per
+    sub-step) together: the error against a fine reference halves each time, and at the defaults it
     is within 1.5 % of the stroke, at 1 ms and at 10 ms control periods."""
     rng = np.random.default_rng(1)
     blocks = rng.uniform(0, 0.15, size=24)
     blocks[::5] = 1.0
     blocks[2::5] = 0.0
     duty = np.repeat(blocks, 500)
-    ref = Simulator(max_substep_s=3e-5, max_temperature_step_k=0.01).run(duty, record=("position_m",))["position_m"][:, 0]
+    fine = {"max_substep_s": 3e-5, "max_temperature_step_k": 0.01, "max_position_step_m": 0.2e-6}
+    ref = Simulator(**fine).run(duty, record=("position_m",))["position_m"][:, 0]
     err = {}
-    for cap, dk in ((10e-3, 0.5), (5e-3, 0.25), (2.5e-3, 0.125)):
-        x = Simulator(max_substep_s=cap, max_temperature_step_k=dk).run(duty, record=("position_m",))["position_m"][:, 0]
+    for cap, dk, dx in ((10e-3, 0.5, 10e-6), (5e-3, 0.25, 5e-6), (2.5e-3, 0.125, 2.5e-6)):
+        sim = Simulator(max_substep_s=cap, max_temperature_step_k=dk, max_position_step_m=dx)
+        x = sim.run(duty, record=("position_m",))["position_m"][:, 0]
         err[cap] = np.max(np.abs(x - ref))
     assert err[10e-3] < 0.15e-3
     assert err[10e-3] / err[5e-3] > 1.5 and err[5e-3] / err[2.5e-3] > 1.5
     coarse = Simulator(control_period_s=10e-3).run(duty[::10], record=("position_m",))["position_m"][:, 0]
     assert np.max(np.abs(coarse - ref[9::10])) < 0.15e-3
+
+
+def _cut_sequence(seed):
+    """Random duty blocks of 0.25 s, every fourth at full power: the wire hits the cut often."""
+    rng = np.random.default_rng(seed)
+    blocks = rng.uniform(0.0, 1.0, size=40)
+    blocks[::4] = 1.0
+    blocks[1::4] = rng.uniform(0.0, 0.1, size=10)
+    return np.repeat(blocks, 250)
+
+
+def test_the_cut_switches_where_the_position_crosses_it_not_at_a_substep_boundary():
+    """10 V: within 0.1 mm and 0.5 K of a 30 us reference everywhere. 20 V: the same bound
+    through the first arrival at the cut; after that the wire chatters on the cut at full
+    duty, a relay limit cycle whose release moves by milliseconds for 0.01 mm of position,
+    so pointwise errors are not a measure of the integrator (0.25 mm / 4-8 K, and the
+    reference itself is 0.3 K from a 10 us one). There the mean over each 0.25 s block is
+    compared instead."""
+    duty = _cut_sequence(1)
+    rec = ("position_m", "temperature_c", "end_of_travel_cut")
+    fine = {"max_substep_s": 3e-5, "max_temperature_step_k": 0.01, "max_position_step_m": 0.5e-6}
+    for voltage in (10.0, 20.0):
+        model = preset(f"supply-{voltage:g}v")
+        ref = Simulator(model, **fine).run(duty, record=rec)
+        out = Simulator(model).run(duty, record=rec)
+        cut = ref["end_of_travel_cut"][:, 0]
+        assert cut.sum() > 1000  # the sequence really works the cut
+        dx = np.abs(out["position_m"] - ref["position_m"])[:, 0]
+        dt = np.abs(out["temperature_c"] - ref["temperature_c"])[:, 0]
+        if voltage == 10.0:
+            assert dx.max() < 0.1e-3 and dt.max() < 0.5
+        else:
+            first_release = int(np.argmax(cut > 0.5)) + int(np.argmax(cut[int(np.argmax(cut > 0.5)) :] < 0.5))
+            assert dx[:first_release].max() < 0.1e-3 and dt[:first_release].max() < 0.5
+            blocks = lambda a: a[:, 0].reshape(-1, 250).mean(axis=1)  # noqa: E731
+            assert np.max(np.abs(blocks(out["temperature_c"]) - blocks(ref["temperature_c"]))) < 1.0
+            assert np.max(np.abs(blocks(out["position_m"]) - blocks(ref["position_m"]))) < 0.05e-3
 
 
 def test_resolved_and_averaged_pwm_agree_apart_from_ripple():
@@ -176,7 +265,8 @@ def test_resolved_and_averaged_pwm_agree_apart_from_ripple():
 def test_energy_is_accounted_for():
     model = ModelConfig(preset("standard")).with_effect("latent_heat", {"latent_heat_j_kg": 24200.0})
     duty = np.r_[np.ones(600), np.full(4000, 0.06), np.zeros(5000)]
-    sim = Simulator([preset("standard"), model, preset("supply-20v")], pwm_mode="resolved")
+    no_latent = ModelConfig(preset("standard").with_changes(**{"wire.latent_heat_j_kg": 0.0}))
+    sim = Simulator([no_latent, model, preset("supply-20v")], pwm_mode="resolved")
     sim.run(duty)
     e = sim.energy_balance()
     assert np.all(e["electrical"] > 1.0)
@@ -185,7 +275,7 @@ def test_energy_is_accounted_for():
     # Mechanical side: the wire's work is kinetic + spring + dissipated, up to the
     # backward-Euler step's numerical damping (stated tolerance: 0.1 % of the input).
     assert np.all(np.abs(e["mechanical_residual"]) < 1e-3 * e["electrical"])
-    # Latent heat was absorbed while transforming on the second actuator only.
+    # Latent heat was absorbed while transforming, except on the wire without any.
     assert e["latent_released"][0] == 0.0 and e["latent_released"][1] != 0.0
 
 
@@ -240,7 +330,7 @@ def test_coulomb_friction_makes_the_position_lag_and_stick():
     stuck = Simulator(model).run(duty, record=("position_m",))["position_m"][:, 0]
     # Friction opposes the motion both ways: behind while contracting, ahead while extending.
     assert (free - stuck)[:400].max() > 0.3e-3
-    assert (stuck - free)[400:].max() > 0.3e-3
+    assert (stuck - free)[400:].max() > 0.2e-3
     # And the mass truly sticks: stretches with exactly zero motion.
     assert np.sum(np.diff(stuck[350:]) == 0.0) > 200
     assert np.sum(np.diff(free[350:]) == 0.0) < 10

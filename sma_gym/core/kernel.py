@@ -51,6 +51,7 @@ from sma_gym.core.layout import (
     P_D_M,
     P_DAMPING,
     P_DT_MAX,
+    P_DX_MAX,
     P_DUTY_MAX,
     P_EOT,
     P_EOT_RELEASE,
@@ -73,7 +74,8 @@ from sma_gym.core.layout import (
     P_M_S,
     P_MASS,
     P_N_NODES,
-    P_NODE_OFFSET0,
+    P_NODE_COOL0,
+    P_NODE_HEAT0,
     P_NODE_WEIGHT0,
     P_POS_NOISE,
     P_POS_RESOLUTION,
@@ -141,6 +143,13 @@ from sma_gym.physics.thermal import convection_coefficient, exponential_euler
 MIN_SUBSTEP_S = 1e-9
 """Slivers shorter than this (rounding at PWM edges) advance the clock without a step."""
 
+MAX_SUBSTEPS = 4096
+"""Most accuracy-driven sub-steps per control step: bounds the work of one step for any
+parameters (PWM edges in resolved mode come on top, two per PWM period)."""
+
+CUT_WATCH_M = 2e-3
+"""Within this distance below x_eot a powered sub-step is checked for crossing the cut."""
+
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _resistance(state, params, i, x, xi, t_c):
@@ -169,7 +178,7 @@ def sensor_output(state, params, i):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _substep(state, params, i, h, energy_j, offsets, weights, nodes0, nodes1, n_nodes):
+def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, nodes1, n_nodes):
     x0 = state[i, S_X]
     v0 = state[i, S_V]
     t0 = state[i, S_T]
@@ -227,7 +236,7 @@ def _substep(state, params, i, h, energy_j, offsets, weights, nodes0, nodes1, n_
     for attempt in range(3):
         z, x1, s1, t1 = solve_step(
             stick, x0, t_pred, z0, k_ext, b_ext - friction, area, length, d_a, d_m, eps0, alpha, t_amb, sigma0,
-            c_a, c_m, a_s, a_f, m_s, m_f, lat_h, lat_c, n_nodes, offsets, weights, nodes0, nodes1,
+            c_a, c_m, a_s, a_f, m_s, m_f, lat_h, lat_c, n_nodes, shift_h, shift_c, weights, nodes0, nodes1,
         )
         if f_c <= 0.0:
             break
@@ -311,7 +320,9 @@ def _take_readings(state, params, i, on_time, t_settle, n_pos, n_r, n_i, n_v):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _control_step(state, params, i, duty_cmd, dt, n_pos, n_r, n_i, n_v, offsets, weights, nodes0, nodes1, n_nodes):
+def _control_step(
+    state, params, i, duty_cmd, dt, n_pos, n_r, n_i, n_v, shift_h, shift_c, weights, nodes0, nodes1, n_nodes, saved
+):
     duty = duty_cmd
     if duty < 0.0:
         duty = 0.0
@@ -370,6 +381,7 @@ def _control_step(state, params, i, duty_cmd, dt, n_pos, n_r, n_i, n_v, offsets,
             seg = remaining
         if seg > h_max:
             seg = h_max
+        seg_edge = seg
         # Accuracy: the temperature may change by at most dt_max_k per sub-step.
         t_now = state[i, S_T]
         h_conv = convection_coefficient(
@@ -379,16 +391,63 @@ def _control_step(state, params, i, duty_cmd, dt, n_pos, n_r, n_i, n_v, offsets,
         rate = abs(power - h_conv * params[i, P_SURFACE] * (t_now - params[i, P_T_AMB])) / heat_cap
         if rate * seg > dt_max_k:
             seg = dt_max_k / rate
+        # ... and the position by at most P_DX_MAX: the stress transient of fast motion moves
+        # the hysterons irreversibly, so it must be resolved where it happens (end of travel).
+        speed = abs(state[i, S_V])
+        if speed * seg > params[i, P_DX_MAX]:
+            seg = params[i, P_DX_MAX] / speed
+        # Bounded work whatever the parameters: never more than MAX_SUBSTEPS per control step
+        # (a physically meaningless model then integrates inaccurately, but it returns).
+        if seg < dt / MAX_SUBSTEPS:
+            seg = min(dt / MAX_SUBSTEPS, seg_edge)
         if not resolved:
             # Split what is left evenly rather than leaving a sliver at the end.
             pieces = math.ceil(remaining / seg - 1e-9)
             seg = remaining / pieces
-        energy = power * seg
-        if resolved:
-            if switched_on:
-                energy = power * pulse_integral(tau, tau + seg, tau_rise, rise_form)
-            state[i, S_PWM_TAU] = tau + seg
-        _substep(state, params, i, seg, energy, offsets, weights, nodes0, nodes1, n_nodes)
+        # The end-of-travel cut switches the power off where the position crosses x_eot (and
+        # back on where it falls below the release point), not at the end of the sub-step
+        # that crosses it: if a sub-step ends past the switching point, it is taken again up
+        # to the crossing (interpolated in position: the mechanics are stiff, so x is nearly
+        # linear in time within a sub-step) and the rest of the step runs switched.
+        eot = params[i, P_EOT]
+        x_now = state[i, S_X]
+        if state[i, S_EOT_CUT] < 0.5:
+            threshold = eot
+            watch = power > 0.0 and x_now > eot - CUT_WATCH_M
+        else:
+            # Release (averaged mode; resolved mode resumes at the next PWM edge).
+            threshold = eot - params[i, P_EOT_RELEASE]
+            watch = not resolved and mean_fraction > 0.0 and x_now < threshold + CUT_WATCH_M
+        if watch:
+            for r in range(saved.shape[0]):
+                saved[r] = state[i, r]
+        for attempt in range(2):
+            energy = power * seg
+            if resolved:
+                if switched_on:
+                    energy = power * pulse_integral(tau, tau + seg, tau_rise, rise_form)
+                state[i, S_PWM_TAU] = tau + seg
+            _substep(state, params, i, seg, energy, shift_h, shift_c, weights, nodes0, nodes1, n_nodes)
+            if not watch or attempt == 1:
+                break
+            x_start = saved[S_X]
+            x_end = state[i, S_X]
+            if saved[S_EOT_CUT] < 0.5:
+                crossed = x_end >= threshold
+                switched = 1.0
+            else:
+                crossed = x_end < threshold
+                switched = 0.0
+            if not crossed:
+                break
+            fraction = (threshold - x_start) / (x_end - x_start) if x_end != x_start else 0.0
+            fraction = min(max(fraction, 0.0), 1.0)
+            for r in range(saved.shape[0]):
+                state[i, r] = saved[r]
+            state[i, S_EOT_CUT] = switched
+            seg = fraction * seg
+            if seg < MIN_SUBSTEP_S:
+                break
         remaining -= seg
     if resolved:
         if remaining > 0.0:
@@ -420,17 +479,20 @@ def advance(state, params, duty, dt, noise, record, record_rows):
     have_noise = noise.shape[0] > 0
     have_record = record.shape[0] > 0
     n_rec = record_rows.shape[0]
-    offsets = np.empty(MAX_SPREAD_NODES)
+    shift_h = np.empty(MAX_SPREAD_NODES)
+    shift_c = np.empty(MAX_SPREAD_NODES)
     weights = np.empty(MAX_SPREAD_NODES)
     nodes0 = np.empty(MAX_SPREAD_NODES)
     nodes1 = np.empty(MAX_SPREAD_NODES)
+    saved = np.empty(state.shape[1])
     # Each actuator's state and parameters are contiguous (actuator-major), so the loop streams
     # through memory once per step however many actuators there are.
     for s in range(n_steps):
         for i in range(n):
             n_nodes = int(params[i, P_N_NODES])
             for k in range(n_nodes):
-                offsets[k] = params[i, P_NODE_OFFSET0 + k]
+                shift_h[k] = params[i, P_NODE_HEAT0 + k]
+                shift_c[k] = params[i, P_NODE_COOL0 + k]
                 weights[k] = params[i, P_NODE_WEIGHT0 + k]
             n_pos = 0.0
             n_r = 0.0
@@ -441,7 +503,9 @@ def advance(state, params, duty, dt, noise, record, record_rows):
                 n_r = noise[s, 1, i]
                 n_i = noise[s, 2, i]
                 n_v = noise[s, 3, i]
-            _control_step(state, params, i, duty[s, i], dt, n_pos, n_r, n_i, n_v, offsets, weights, nodes0, nodes1, n_nodes)
+            _control_step(
+                state, params, i, duty[s, i], dt, n_pos, n_r, n_i, n_v, shift_h, shift_c, weights, nodes0, nodes1, n_nodes, saved
+            )
             if have_record:
                 for j in range(n_rec):
                     record[s, j, i] = state[i, record_rows[j]]

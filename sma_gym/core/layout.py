@@ -10,7 +10,7 @@ same code. The integer constants below are compile-time constants for numba.
 
 from __future__ import annotations
 
-MAX_SPREAD_NODES = 5
+MAX_SPREAD_NODES = 7
 
 # --------------------------------------------------------------------------------------
 # State rows
@@ -100,59 +100,54 @@ P_M_S = 19  # [degC]
 P_M_F = 20  # [degC]
 P_LATENT = 21  # latent heat per unit xi while heating (M->A), Delta_H / c_p [K]
 P_LATENT_COOL = 22  # the same while cooling (A->M) [K]
-P_N_NODES = 23  # number of spread sub-elements (1 = transformation_spread off)
-P_NODE_OFFSET0 = 24  # temperature offsets of the sub-elements [K]
-P_NODE_OFFSET1 = 25
-P_NODE_OFFSET2 = 26
-P_NODE_OFFSET3 = 27
-P_NODE_OFFSET4 = 28
-P_NODE_WEIGHT0 = 29  # weights of the sub-elements [-]
-P_NODE_WEIGHT1 = 30
-P_NODE_WEIGHT2 = 31
-P_NODE_WEIGHT3 = 32
-P_NODE_WEIGHT4 = 33
+P_N_NODES = 23  # number of hysterons (sub-elements) of the transformation, 1..MAX_SPREAD_NODES
+P_NODE_HEAT0 = 24  # shift of each hysteron's heating branch (M->A) [K], MAX_SPREAD_NODES rows
+P_NODE_COOL0 = P_NODE_HEAT0 + MAX_SPREAD_NODES  # shift of each hysteron's cooling branch [K]
+P_NODE_WEIGHT0 = P_NODE_COOL0 + MAX_SPREAD_NODES  # weight of each hysteron [-]
+_NODE_END = P_NODE_WEIGHT0 + MAX_SPREAD_NODES
 # resistance
-P_RHO_M = 34  # [ohm m]
-P_RHO_A = 35  # [ohm m]
-P_TCR_M = 36  # [1/K]
-P_TCR_A = 37  # [1/K]
-P_T_REF_R = 38  # [degC]
+P_RHO_M = _NODE_END  # [ohm m]
+P_RHO_A = _NODE_END + 1  # [ohm m]
+P_TCR_M = _NODE_END + 2  # [1/K]
+P_TCR_A = _NODE_END + 3  # [1/K]
+P_T_REF_R = _NODE_END + 4  # [degC]
 # mechanism
-P_MASS = 39  # [kg]
-P_DAMPING = 40  # [N s/m]
-P_K_SPRING = 41  # [N/m]
-P_F_PRE = 42  # [N]
-P_SIGMA0 = 43  # F_pre / A [Pa]
-P_F_COULOMB = 44  # coulomb_friction [N]
-P_FRICTION_FORM = 45  # 0 Coulomb, 1 Stribeck
+P_MASS = _NODE_END + 5  # [kg]
+P_DAMPING = _NODE_END + 6  # [N s/m]
+P_K_SPRING = _NODE_END + 7  # [N/m]
+P_F_PRE = _NODE_END + 8  # [N]
+P_SIGMA0 = _NODE_END + 9  # F_pre / A [Pa]
+P_F_COULOMB = _NODE_END + 10  # coulomb_friction [N]
+P_FRICTION_FORM = _NODE_END + 11  # 0 Coulomb, 1 Stribeck
 # driver and supply
-P_V_SUPPLY = 46  # [V]
-P_R_SERIES = 47  # supply_sag [ohm]
-P_SAG_FORM = 48  # 0 resistor, 1 quadratic
-P_SAG_I_REF = 49  # reference current of the quadratic form [A]
-P_PWM_PERIOD = 50  # [s]
-P_PWM_PHASE = 51  # start of this actuator's period, as a fraction of the period (multiplexer)
-P_DUTY_MAX = 52  # largest duty this actuator may get (1/n when multiplexed)
-P_RESOLVED = 53  # 1 = PWM-resolved, 0 = PWM-averaged
-P_T_SETTLE = 54  # measurement settling after switch-on [s]
-P_TAU_RISE = 55  # pulse_settling time constant [s]
-P_RISE_FORM = 56  # 0 exponential rise, 1 pure delay
-P_EOT = 57  # end-of-travel cut position [m] (inf = none)
-P_EOT_RELEASE = 58  # [m]
+P_V_SUPPLY = _NODE_END + 12  # [V]
+P_R_SERIES = _NODE_END + 13  # supply_sag [ohm]
+P_SAG_FORM = _NODE_END + 14  # 0 resistor, 1 quadratic
+P_SAG_I_REF = _NODE_END + 15  # reference current of the quadratic form [A]
+P_PWM_PERIOD = _NODE_END + 16  # [s]
+P_PWM_PHASE = _NODE_END + 17  # start of this actuator's period, as a fraction of the period (multiplexer)
+P_DUTY_MAX = _NODE_END + 18  # largest duty this actuator may get (1/n when multiplexed)
+P_RESOLVED = _NODE_END + 19  # 1 = PWM-resolved, 0 = PWM-averaged
+P_T_SETTLE = _NODE_END + 20  # measurement settling after switch-on [s]
+P_TAU_RISE = _NODE_END + 21  # pulse_settling time constant [s]
+P_RISE_FORM = _NODE_END + 22  # 0 exponential rise, 1 pure delay
+P_EOT = _NODE_END + 23  # end-of-travel cut position [m] (inf = none)
+P_EOT_RELEASE = _NODE_END + 24  # [m]
 # sensors
-P_TAU_FILTER = 59  # position filter time constant [s] (0 = none)
-P_TAU_LAG = 60  # sensor_lag [s]
-P_LAG_ORDER = 61  # 1 or 2
-P_ABBE = 62  # abbe_offset [m]
-P_ABBE_FORM = 63  # 0 step, 1 wear
-P_POS_NOISE = 64  # [m]
-P_POS_RESOLUTION = 65  # [m]
-P_R_NOISE = 66  # [ohm]
-P_I_NOISE = 67  # [A]
-P_V_NOISE = 68  # [V]
+P_TAU_FILTER = _NODE_END + 25  # position filter time constant [s] (0 = none)
+P_TAU_LAG = _NODE_END + 26  # sensor_lag [s]
+P_LAG_ORDER = _NODE_END + 27  # 1 or 2
+P_ABBE = _NODE_END + 28  # abbe_offset [m]
+P_ABBE_FORM = _NODE_END + 29  # 0 step, 1 wear
+P_POS_NOISE = _NODE_END + 30  # [m]
+P_POS_RESOLUTION = _NODE_END + 31  # [m]
+P_R_NOISE = _NODE_END + 32  # [ohm]
+P_I_NOISE = _NODE_END + 33  # [A]
+P_V_NOISE = _NODE_END + 34  # [V]
 # integrator
-P_H_MAX = 69  # largest integration sub-step [s]
-P_DT_MAX = 70  # largest temperature change per sub-step [K]
-N_PARAMS = 71
+P_H_MAX = _NODE_END + 35  # largest integration sub-step [s]
+P_DT_MAX = _NODE_END + 36  # largest temperature change per sub-step [K]
+P_DX_MAX = _NODE_END + 37  # largest position change per sub-step [m]
+N_PARAMS = P_DX_MAX + 1
 
 PARAM_ROWS = {name[2:].lower(): row for name, row in list(globals().items()) if name.startswith("P_")}

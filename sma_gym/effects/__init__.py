@@ -17,7 +17,6 @@ synthetic test data can hide an effect in a shape that differs from the candidat
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Mapping
 
@@ -75,11 +74,11 @@ EFFECTS: dict[str, Effect] = {
             name="transformation_spread",
             title="Transformation-temperature spread",
             description=(
-                "The wire transforms over a range of temperatures rather than at one A_s/A_f: "
-                "resistive heating is not uniform and the transition temperatures are a range "
-                "(§5.7). Modelled as sub-elements in series whose transformation temperatures "
-                "are offset by a distribution of standard deviation spread_k; the transformation "
-                "starts earlier and ends later, and minor loops become smooth."
+                "The wire transforms over a wider range of temperatures than the nominal "
+                "model says: resistive heating is less uniform, the transition temperatures "
+                "vary more along the wire (§5.7). Adds an independent spread of standard "
+                "deviation spread_k to the wire's nominal transformation_spread_k (variances "
+                "add): the transformation starts earlier and ends later."
             ),
             source="§5.7",
             parameters=(
@@ -91,8 +90,10 @@ EFFECTS: dict[str, Effect] = {
             name="latent_heat",
             title="Latent heat of transformation",
             description=(
-                "The M->A transformation absorbs, the A->M transformation releases, latent heat "
-                "(Flexinol datasheet: 24.2 J/g). Adds Delta_H m xi' to the heat balance (§5.8)."
+                "The M->A transformation absorbs, the A->M transformation releases more latent "
+                "heat than the wire's nominal latent_heat_j_kg (the report's own model had "
+                "none; the datasheet's 24.2 J/g is nominal now). Adds Delta_H m xi' to the "
+                "heat balance (§5.8)."
             ),
             source="§5.8",
             parameters=(
@@ -292,26 +293,3 @@ class EffectSet:
 
     def to_dict(self) -> dict[str, Any]:
         return {s.name: s.to_dict() for s in self.settings}
-
-
-def spread_nodes(spread_k: float, form: str, max_nodes: int) -> tuple[list[float], list[float]]:
-    """Temperature offsets and weights of the sub-elements of ``transformation_spread``.
-
-    ``default``: Gauss-Hermite quadrature of a normal distribution (5 nodes).
-    ``uniform``: equal sub-elements spread uniformly with the same standard deviation.
-    Zero spread gives one node, so the effect costs nothing when off.
-    """
-    if spread_k == 0.0:
-        return [0.0], [1.0]
-    if form == "uniform":
-        count = max_nodes
-        half_width = math.sqrt(3.0) * spread_k
-        offsets = [-half_width + (2 * k + 1) * half_width / count for k in range(count)]
-        # Midpoints of equal bins have a slightly smaller spread; rescale to exact std.
-        std = math.sqrt(sum(o * o for o in offsets) / count)
-        offsets = [o * spread_k / std for o in offsets]
-        return offsets, [1.0 / count] * count
-    # Probabilists' Gauss-Hermite, 5 nodes: exact for polynomials up to degree 9.
-    nodes = [-2.8569700138728056, -1.3556261799742657, 0.0, 1.3556261799742657, 2.8569700138728056]
-    weights = [0.011257411327720691, 0.2220759220056126, 0.5333333333333334, 0.2220759220056126, 0.011257411327720691]
-    return [spread_k * n for n in nodes], weights

@@ -87,7 +87,8 @@ def _evaluate(
     latent_heat,
     latent_cool,
     n_nodes,
-    offsets,
+    shift_h,
+    shift_c,
     weights,
     xi_nodes0,
     xi_nodes_out,
@@ -123,9 +124,8 @@ def _evaluate(
     big_z = 0.0
     dbig_z = 0.0
     for k in range(n_nodes):
-        tk = t1 + offsets[k]
-        u_h = (tk - a_s - sigma1 / c_a) * inv_h
-        u_c = (tk - m_f - sigma1 / c_m) * inv_c
+        u_h = (t1 - shift_h[k] - a_s - sigma1 / c_a) * inv_h
+        u_c = (t1 - shift_c[k] - m_f - sigma1 / c_m) * inv_c
         xi_h = cosine_fraction(u_h)
         xi_c = cosine_fraction(u_c)
         old = xi_nodes0[k]
@@ -169,7 +169,8 @@ def solve_step(
     latent_heat,
     latent_cool,
     n_nodes,
-    offsets,
+    shift_h,
+    shift_c,
     weights,
     xi_nodes0,
     xi_nodes_out,
@@ -191,7 +192,7 @@ def solve_step(
     for it in range(80):
         big_z, dbig_z, x1, sigma1, t1 = _evaluate(
             z, stick, x0, t_pred, z0, k_ext, b_ext, area, length, d_a, d_m, eps0, alpha, t_amb, sigma0,
-            c_a, c_m, a_s, a_f, m_s, m_f, latent_heat, latent_cool, n_nodes, offsets, weights, xi_nodes0, xi_nodes_out,
+            c_a, c_m, a_s, a_f, m_s, m_f, latent_heat, latent_cool, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out,
         )
         r = z - big_z
         if it == 0:

@@ -14,23 +14,37 @@ Branch switching and minor loops
 The report keeps xi_M / xi_A (xi at the last reversal) and rescales the cosine from there.
 With its own parameters (M_s = 95 > A_s = 75) that rule makes xi *jump* at a reversal
 inside the overlap of the two temperature ranges, and small temperature ripple (every PWM
-pulse) ratchets xi away. We use instead the rule that the major loop bounds every state::
+pulse) ratchets xi away. We build the hysteresis from *hysterons* instead, each of which
+obeys the rule that its own major loop bounds its state::
 
-    xi_new = clip(xi_old, xi_C(T, sigma), xi_H(T, sigma))
+    xi_k,new = clip(xi_k,old, xi_C,k(T, sigma), xi_H,k(T, sigma))      xi = sum_k w_k xi_k
 
-While the state lies between the two branches nothing transforms; it transforms along a
-branch only once it has reached it. This is the limit of the report's own parameters:
-A_s - M_f = A_f - M_s = 15 K means the major loop is exactly a backlash (play) of 15 K
-followed by one cosine, and the rule above is that backlash. Consequences:
+While a hysteron lies between its two branches it does not transform; it transforms along a
+branch only once it has reached it (a play operator). A hysteron's branches are the
+report's cosines shifted in temperature: its heating branch by ``shift_h``, its cooling
+branch by ``shift_c``. The set of hysterons is a discrete Preisach density
+(:func:`hysteron_nodes`):
 
-* a reversal part way through a transformation continues from the current xi (never jumps);
+* ``preisach`` (the nominal law): the centres (shift_h + shift_c) / 2 are spread over the
+  local transformation temperatures of the wire (§5.7: non-uniform heating and composition),
+  and the loop widths are spread from the full major-loop width down to nearly zero. The
+  narrow hysterons start back almost at once after a reversal, the wide ones later, so a
+  reversal is followed by motion within about a kelvin, as in real wires (and in the
+  report's own rescaled-cosine law), and the major loop gets rounded corners.
+* ``play`` (the model of sma-gym 0.1): every hysteron has the full width, so after a
+  reversal the wire crosses the whole 15 K hysteresis before it moves.
+
+Either way (a weighted sum of play operators, i.e. a Prandtl-Ishlinskii / discrete
+Preisach model):
+
+* xi is continuous: a reversal part way through a transformation continues from the
+  current xi (never jumps);
 * minor loops close: heating back to a reversal point returns to the branch left there
-  (return-point memory), so PWM ripple cannot make xi drift;
-* the only memory is xi itself, so nothing can get out of step.
+  (return-point memory and wiping-out), so PWM ripple cannot make xi drift or ratchet;
+* the only memory is the hysterons' xi, so nothing can get out of step.
 
-The ``transformation_spread`` effect replaces the single element by sub-elements with
-offset temperatures, which rounds the start and end of the transformation and the corners
-of minor loops (the report's §5.7 observation).
+With the report's parameters A_s - M_f = A_f - M_s = 15 K, so a full-width hysteron is
+exactly a backlash of 15 K followed by one cosine.
 """
 
 from __future__ import annotations
@@ -70,3 +84,96 @@ def major_loop(temperature_c, stress_pa, a_s, a_f, m_s, m_f, c_a, c_m):
     u_h = np.clip((t - a_s - s / c_a) / (a_f - a_s), 0.0, 1.0)
     u_c = np.clip((t - m_f - s / c_m) / (m_s - m_f), 0.0, 1.0)
     return 0.5 * (1.0 + np.cos(np.pi * u_h)), 0.5 * (1.0 + np.cos(np.pi * u_c))
+
+
+MINOR_LOOP_LAWS = ("preisach", "play")
+"""Names of the hysteresis laws (see the module docstring)."""
+
+# Probabilists' Gauss-Hermite, 5 nodes: exact for polynomials up to degree 9.
+_GH_NODES = (-2.8569700138728056, -1.3556261799742657, 0.0, 1.3556261799742657, 2.8569700138728056)
+_GH_WEIGHTS = (0.011257411327720691, 0.2220759220056126, 0.5333333333333334, 0.2220759220056126, 0.011257411327720691)
+
+# Which width quantile each centre gets (Latin-hypercube pairing of 7 hysterons): centre
+# and width uncorrelated (rank correlation -0.07), the narrowest hysteron near the middle of
+# the transformation, where closed-loop reversals happen.
+_WIDTH_RANK_7 = (3, 6, 0, 2, 5, 1, 4)
+
+
+def _normal_quantile(p: float) -> float:
+    # Acklam's rational approximation is overkill here; bisection on erf is exact enough.
+    lo, hi = -10.0, 10.0
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        if 0.5 * (1.0 + math.erf(mid / math.sqrt(2.0))) < p:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def hysteron_nodes(
+    spread_k: float,
+    width_spread: float,
+    loop_width_k: float,
+    law: str = "preisach",
+    centre_form: str = "default",
+    max_nodes: int = 7,
+) -> tuple[list[float], list[float], list[float]]:
+    """Hysterons of the transformation: ``(shift_h, shift_c, weights)``, one entry each.
+
+    ``spread_k`` [K]: standard deviation of the hysterons' centre temperatures (§5.7).
+    ``width_spread`` [-]: 0 gives every hysteron the full width ``loop_width_k``; 1 spreads
+    the widths uniformly over [0, loop_width_k]. ``loop_width_k`` is the narrowest gap
+    between the heating and the cooling branch of the major loop (min(A_s - M_f, A_f - M_s)),
+    so no hysteron's heating branch ever lies below its cooling branch. ``centre_form``:
+    ``default`` normal centres, ``uniform`` uniformly spread centres (same std).
+
+    The ``play`` law, or no width spread, uses 5-point Gauss-Hermite centres (one node when
+    there is no spread either, so the simplest model costs nothing extra). The ``preisach``
+    law uses ``max_nodes`` equally weighted hysterons whose centres are the distribution's
+    quantiles (rescaled to the exact std) and whose widths are the uniform quantiles,
+    paired Latin-hypercube fashion.
+    """
+    if law not in MINOR_LOOP_LAWS:
+        raise ValueError(f"minor-loop law = {law!r}: expected one of {MINOR_LOOP_LAWS}")
+    if law == "play" or width_spread == 0.0:
+        if spread_k == 0.0:
+            return [0.0], [0.0], [1.0]
+        if centre_form == "uniform":
+            centres = _uniform_centres(spread_k, max_nodes)
+            weights = [1.0 / max_nodes] * max_nodes
+        else:
+            centres = [spread_k * n for n in _GH_NODES]
+            weights = list(_GH_WEIGHTS)
+        return centres, list(centres), _exact_unit_sum(weights)
+    n = max_nodes
+    if centre_form == "uniform":
+        centres = _uniform_centres(spread_k, n)
+    else:
+        raw = [_normal_quantile((k + 0.5) / n) for k in range(n)]
+        std = math.sqrt(sum(r * r for r in raw) / n)
+        centres = [spread_k * r / std for r in raw]
+    ranks = _WIDTH_RANK_7 if n == 7 else tuple(range(n))
+    shift_h, shift_c = [], []
+    for k in range(n):
+        narrowing = width_spread * loop_width_k * (ranks[k] + 0.5) / n
+        shift_h.append(centres[k] - 0.5 * narrowing)
+        shift_c.append(centres[k] + 0.5 * narrowing)
+    return shift_h, shift_c, _exact_unit_sum([1.0 / n] * n)
+
+
+def _exact_unit_sum(weights: list[float]) -> list[float]:
+    # The core sums w_k xi_k in this order; a fully martensitic wire must give xi = 1.0
+    # exactly (else a wire at rest creeps by rounding), so the last weight takes the rest.
+    head = 0.0
+    for w in weights[:-1]:
+        head += w
+    return weights[:-1] + [1.0 - head]
+
+
+def _uniform_centres(spread_k: float, count: int) -> list[float]:
+    half_width = math.sqrt(3.0) * spread_k
+    centres = [-half_width + (2 * k + 1) * half_width / count for k in range(count)]
+    # Midpoints of equal bins have a slightly smaller spread; rescale to the exact std.
+    std = math.sqrt(sum(c * c for c in centres) / count)
+    return [c * spread_k / std for c in centres]
