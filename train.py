@@ -23,6 +23,11 @@ the measurements behind these choices. The run folder (named at the end) gets:
   ``evaluation/``: the harness's tables and plots;
 * ``tb/``: TensorBoard logs (``tensorboard --logdir <folder>/tb``).
 
+A run never mixes its files with another run's: a non-empty ``--out`` is refused unless
+``--overwrite`` is given (then the previous run's outputs are deleted first), a folder
+another run is writing to is refused (``.sma-gym.lock``), every file is written atomically,
+and each card records the SHA-256 of its zip (a card that does not match is refused).
+
 The validation references used to pick the best model are drawn from the training
 distribution with seeds the training never uses; the final comparison uses the report's
 references, which the training distribution never produces exactly.
@@ -32,15 +37,14 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import json
 import math
 import sys
 import time
-import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import tomllib
 
 if TYPE_CHECKING:
     from agents.evaluation import Results
@@ -74,8 +78,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--frame-stack", type=int, help="observations stacked as the agent's history (default: from the file)")
     p.add_argument("--history", choices=("none", "ema"), help="history features (agents/history.py; default: from the file)")
     p.add_argument("--residual", help="base controller the agent corrects, e.g. 'VSC3 + FF', or 'none' (default: from the file)")
-    p.add_argument("--out", help="run folder (default runs/<env>-<algo>-<time>)")
-    p.add_argument("--device", default="cpu", help="torch device (default cpu)")
+    p.add_argument("--out", help="run folder (default runs/<env>-<algo>-<time>); must be new or empty unless --overwrite")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="allow a non-empty --out: the previous run's outputs there are deleted first (default: refuse a non-empty --out)",
+    )
+    p.add_argument("--device", default="cpu", help="torch device, e.g. cpu, cuda, cuda:1, mps (default cpu)")
     p.add_argument("--quick", action="store_true", help=f"tiny budget ({QUICK_TIMESTEPS} steps) and a short evaluation, for smoke tests")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     return p.parse_args(argv)
@@ -113,6 +122,9 @@ def settings(args: argparse.Namespace) -> dict[str, Any]:
         else:
             table["n_steps"] = 64
             table["batch_size"] = 64
+    if run["seed"] < 0:
+        raise ValueError(f"--seed {run['seed']}: expected an integer >= 0 (numpy and torch seeds are unsigned)")
+    run["device"] = check_device(run["device"])
     for name, value in (("timesteps", run["timesteps"]), ("n_envs", run["n_envs"]), ("frame_stack", run["frame_stack"])):
         if value < 1:
             raise ValueError(f"--{name.replace('_', '-')} = {value}: expected an integer >= 1")
@@ -133,6 +145,45 @@ def settings(args: argparse.Namespace) -> dict[str, Any]:
         raise ValueError(f"residual_scale = {run['residual_scale']}: expected a fraction of full duty in (0, 1]")
     run["model_kwargs"] = table
     return run
+
+
+def check_device(device: str) -> str:
+    """``device`` if torch can train on it here, else a ``ValueError`` naming it."""
+    import torch
+
+    try:
+        parsed = torch.device(device)
+    except (RuntimeError, TypeError) as err:
+        raise ValueError(f"--device {device!r}: not a torch device ({err}); expected e.g. cpu, cuda, cuda:0, mps") from None
+    available = {
+        "cpu": lambda: True,
+        "cuda": lambda: torch.cuda.is_available() and (parsed.index is None or parsed.index < torch.cuda.device_count()),
+        "mps": lambda: bool(getattr(torch.backends, "mps", None)) and torch.backends.mps.is_available(),
+    }
+    if parsed.type not in available:
+        raise ValueError(f"--device {device!r}: expected cpu, cuda[:N] or mps")
+    if not available[parsed.type]():
+        raise ValueError(f"--device {device!r}: not available on this machine (use --device cpu)")
+    return device
+
+
+RUN_OUTPUTS = (
+    "run.json", "results.md", "goals.json", "best_model.zip", "best_model.json", "final_model.zip",
+    "final_model.json", "checkpoints", "evaluation", "validation", "tb",
+)
+"""What a run writes into its folder: what ``--overwrite`` deletes first, and nothing else."""
+
+
+def prepare_out(out: Path) -> None:
+    """Delete a previous run's outputs from ``out`` (``--overwrite``), so none is mistaken for this run's."""
+    import shutil
+
+    for name in RUN_OUTPUTS:
+        path = out / name
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        elif path.exists() or path.is_symlink():
+            path.unlink()
 
 
 # --------------------------------------------------------------------------------------
@@ -233,7 +284,14 @@ def card(run: dict, name: str, **extra: Any) -> dict[str, Any]:
 def train(run: dict, out: Path, progress: bool = True) -> dict[str, Any]:
     import torch
     from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
+    from stable_baselines3.common.callbacks import (
+        BaseCallback,
+        CallbackList,
+        CheckpointCallback,
+        EvalCallback,
+    )
+
+    from agents.policies import save_policy, write_card
 
     torch.manual_seed(run["seed"])
     algo_cls = {"sac": SAC, "ppo": PPO}[run["algo"]]
@@ -248,18 +306,32 @@ def train(run: dict, out: Path, progress: bool = True) -> dict[str, Any]:
     per_env = max(1, run["eval_freq"] // run["n_envs"])
 
     class CardedCheckpoints(CheckpointCallback):
+        """SB3's checkpoints, each zip written atomically with its card (hash of the zip)."""
+
         def _on_step(self) -> bool:
-            result = super()._on_step()
             if self.n_calls % self.save_freq == 0:
                 path = Path(self._checkpoint_path(extension="zip"))
-                path.with_suffix(".json").write_text(json.dumps(card(run, path.stem, timesteps=self.num_timesteps), indent=2))
-            return result
+                save_policy(self.model, path, card(run, path.stem, timesteps=self.num_timesteps))
+            return True
+
+    best = out / "best_model.zip"
+
+    class SaveBest(BaseCallback):
+        """Called by EvalCallback on a new best validation return: zip, then card."""
+
+        def _on_step(self) -> bool:
+            save_policy(
+                self.model, best,
+                card(run, f"{run['algo'].upper()} agent", timesteps=self.num_timesteps, validation_return=float(self.parent.best_mean_reward)),
+            )
+            return True
 
     evaluation = EvalCallback(
         eval_env,
         n_eval_episodes=len(references),
         eval_freq=per_env,
-        best_model_save_path=str(out),
+        # Saved by SaveBest (atomic, with its card) rather than by SB3 (a bare zip).
+        callback_on_new_best=SaveBest(),
         log_path=str(out / "validation"),
         deterministic=True,
         verbose=0,
@@ -273,17 +345,17 @@ def train(run: dict, out: Path, progress: bool = True) -> dict[str, Any]:
     start = time.perf_counter()
     model.learn(total_timesteps=run["timesteps"], callback=callbacks, progress_bar=progress, tb_log_name=run["algo"])
     train_s = time.perf_counter() - start
-    model.save(out / "final_model.zip")
-    (out / "final_model.json").write_text(json.dumps(card(run, "final model", timesteps=run["timesteps"], train_time_s=train_s), indent=2))
-    best = out / "best_model.zip"
+    save_policy(model, out / "final_model.zip", card(run, "final model", timesteps=run["timesteps"], train_time_s=train_s))
     best_at = run["timesteps"]
-    if not best.exists():  # no evaluation happened (tiny budget): the final model is the best we have
-        model.save(best)
-    elif evaluation.evaluations_timesteps:
+    saved_best = best.exists()  # only SaveBest writes it: --out was empty or cleared (prepare_out)
+    if saved_best and evaluation.evaluations_timesteps:
         returns = [float(np.mean(r)) for r in evaluation.evaluations_results]
         best_at = int(evaluation.evaluations_timesteps[int(np.argmax(returns))])  # first maximum, as EvalCallback saves
     best_card = card(run, f"{run['algo'].upper()} agent", timesteps=best_at, train_time_s=train_s, validation_return=float(evaluation.best_mean_reward) if evaluation.evaluations_timesteps else None)
-    (out / "best_model.json").write_text(json.dumps(best_card, indent=2))
+    if saved_best:
+        write_card(best, best_card)  # the card again, now with the training time; same zip, same hash
+    else:  # no evaluation happened (tiny budget): the final model is the best we have
+        save_policy(model, best, best_card)
     venv.close()
     eval_env.close()
     return {"train_time_s": train_s, "validation_references": references}
@@ -294,7 +366,14 @@ def train(run: dict, out: Path, progress: bool = True) -> dict[str, Any]:
 # --------------------------------------------------------------------------------------
 def compare(run: dict, out: Path) -> tuple[str, dict[str, Any]]:
     from agents.controllers import ALL_SPECS, PID, VSC3, with_feedforward
-    from agents.evaluation import CHAPTER_7_CONDITIONS, Results, agent_entry, baseline, run_chapter_7, run_table_6_1
+    from agents.evaluation import (
+        CHAPTER_7_CONDITIONS,
+        Results,
+        agent_entry,
+        baseline,
+        run_chapter_7,
+        run_table_6_1,
+    )
     from agents.policies import load_policy
     from agents.report import write_report
 
@@ -381,27 +460,32 @@ def summarise(run: dict, results: Results, agent: str, conditions: list[tuple[st
 
 
 def main(argv: list[str] | None = None) -> int:
+    from sma_gym._io import check_output_folder, locked_folder, write_json, write_text
+
     try:
         args = parse_args(argv)
         run = settings(args)
+        stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+        out = Path(args.out or ROOT / "runs" / f"{run['env_id']}-{run['algo']}-{stamp}")
+        # Every argument, --out included, is checked before anything is created.
+        check_output_folder(out, must_be_empty=not args.overwrite)
+        with locked_folder(out):
+            if args.overwrite:
+                prepare_out(out)
+            write_json(out / "run.json", dict(run), default=str)
+            started = time.perf_counter()
+            info = train(run, out, progress=not args.no_progress)
+            table, goals = compare(run, out)
+            total = time.perf_counter() - started
+            table += f"\nTraining {info['train_time_s'] / 60:.1f} min, training + evaluation {total / 60:.1f} min ({run['timesteps']} steps, {run['n_envs']} envs, seed {run['seed']}).\n"
+            write_text(out / "results.md", table)
+            write_json(out / "goals.json", {"goals": goals, "train_time_s": info["train_time_s"], "total_time_s": total, "validation_references": info["validation_references"]})
     except ValueError as err:
         print(f"train.py: error: {err}", file=sys.stderr)
         return 2
-    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
-    out = Path(args.out or ROOT / "runs" / f"{run['env_id']}-{run['algo']}-{stamp}")
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "run.json").write_text(json.dumps({k: v for k, v in run.items()}, indent=2, default=str))
-    started = time.perf_counter()
-    info = train(run, out, progress=not args.no_progress)
-    table, goals = compare(run, out)
-    total = time.perf_counter() - started
-    table += f"\nTraining {info['train_time_s'] / 60:.1f} min, training + evaluation {total / 60:.1f} min ({run['timesteps']} steps, {run['n_envs']} envs, seed {run['seed']}).\n"
-    (out / "results.md").write_text(table)
-    (out / "goals.json").write_text(json.dumps({"goals": goals, "train_time_s": info["train_time_s"], "total_time_s": total, "validation_references": info["validation_references"]}, indent=2))
     print(table)
     print(f"run folder: {out}")
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())

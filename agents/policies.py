@@ -23,7 +23,6 @@ resistance, with a calibration fitted to a heating sweep (§4.2).
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -165,6 +164,20 @@ class SelfSensingPolicy(ControllerPolicy):
 POLICY_CARD_SUFFIX = ".json"
 
 
+def _sb3(name: str) -> Any:
+    import stable_baselines3
+
+    return getattr(stable_baselines3, name)
+
+
+POLICY_ALGOS = {"SAC": lambda: _sb3("SAC"), "PPO": lambda: _sb3("PPO"), "TD3": lambda: _sb3("TD3")}
+"""Algorithms a card may name, each a loader of its stable-baselines3 class (imported lazily)."""
+
+POLICY_ENV_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0")
+"""Env ids a card may name: those train.py trains on and ``sma-gym evaluate`` scores (an agent
+of any other id would be silently left out of every table)."""
+
+
 @dataclass
 class AgentPolicy:
     """A trained stable-baselines3 model plus what is needed to evaluate it like it trained.
@@ -230,34 +243,104 @@ class AgentPolicy:
         self._residual = None
 
 
-def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
-    """Open a model saved by ``train.py`` (``<name>.zip`` with its card ``<name>.json``)."""
-    from stable_baselines3 import PPO, SAC, TD3
+def card_path(model_path: str | Path) -> Path:
+    """The card of a model zip: ``<name>.json`` beside ``<name>.zip``."""
+    return Path(model_path).with_suffix(POLICY_CARD_SUFFIX)
 
+
+def save_policy(model: Any, path: str | Path, card: dict[str, Any]) -> Path:
+    """Save ``model`` to ``path`` (a ``.zip``) and then its card, each atomically.
+
+    The card records the SHA-256 of the zip it describes, so a card can never be read as
+    describing another run's model (:func:`read_card` checks it). The zip is written
+    first: an interrupt between the two leaves a zip whose card is missing or stale, which
+    the reader refuses by name, never a card pointing at a model that does not exist.
+    """
+    from sma_gym._io import atomic_path
+
+    target = Path(path)
+    with atomic_path(target) as tmp:
+        model.save(tmp)
+    write_card(target, card)
+    return target
+
+
+def write_card(model_path: str | Path, card: dict[str, Any]) -> Path:
+    """Write (atomically) the card of an existing model zip, with the zip's SHA-256."""
+    from sma_gym._io import sha256_file, write_json
+
+    return write_json(card_path(model_path), {**card, "model_sha256": sha256_file(model_path)})
+
+
+def read_card(model_path: str | Path) -> dict[str, Any]:
+    """The validated card of a model zip written by ``train.py``.
+
+    Raises ``ValueError`` naming the file when the card is missing, is not a JSON object,
+    lacks a field, names an unknown env id or algorithm, or when its ``model_sha256`` is
+    not the hash of the zip beside it (the zip was replaced, e.g. by another run).
+    """
+    from sma_gym._io import read_json_object, sha256_file
+
+    zip_path = Path(model_path)
+    path = card_path(zip_path)
+    if not path.exists():
+        raise ValueError(
+            f"policy {str(zip_path)!r}: no card {str(path)!r} beside it; a model without its card is "
+            "incomplete (interrupted training?) or not written by train.py"
+        )
+    card = read_json_object(path, "policy card")
+
+    def bad(field: str, expected: str) -> ValueError:
+        return ValueError(f"policy card {str(path)!r}: {field} = {card.get(field)!r}: expected {expected}")
+
+    if card.get("format") != "sma-gym-policy":
+        raise bad("format", "'sma-gym-policy' (a card written by train.py)")
+    if card.get("algo") not in POLICY_ALGOS:
+        raise bad("algo", f"one of {', '.join(POLICY_ALGOS)}")
+    if card.get("env_id") not in POLICY_ENV_IDS:
+        raise bad("env_id", f"one of {', '.join(POLICY_ENV_IDS)}")
+    if not isinstance(card.get("env_kwargs", {}), dict):
+        raise bad("env_kwargs", "a JSON object of make kwargs")
+    frame_stack = card.get("frame_stack", 1)
+    if isinstance(frame_stack, bool) or not isinstance(frame_stack, int) or frame_stack < 1:
+        raise bad("frame_stack", "an integer >= 1")
+    if card.get("history", "none") not in ("none", "ema"):
+        raise bad("history", "'none' or 'ema'")
+    if card.get("residual") is not None and not isinstance(card.get("residual"), str):
+        raise bad("residual", "null or a controller label such as 'VSC3 + FF'")
+    scale = card.get("residual_scale", 0.5)
+    if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0.0 < scale <= 1.0:
+        raise bad("residual_scale", "a number in (0, 1]")
+    digest = card.get("model_sha256")
+    if not isinstance(digest, str) or len(digest) != 64:
+        raise bad("model_sha256", "the SHA-256 (64 hex digits) of the model zip it describes")
+    if digest != sha256_file(zip_path):
+        raise ValueError(
+            f"policy {str(zip_path)!r}: its card {str(path)!r} describes another model (SHA-256 mismatch); "
+            "the zip was replaced after the card was written, so the card cannot be trusted"
+        )
+    return card
+
+
+def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
+    """Open a model saved by ``train.py`` (``<name>.zip`` with its card ``<name>.json``).
+
+    The card is required and must describe this very zip (see :func:`read_card`).
+    """
     p = Path(path)
     if p.suffix != ".zip":
         p = p.with_suffix(".zip")
-    if not p.exists():
+    if not p.is_file():
         raise ValueError(f"policy = {str(path)!r}: no such file (expected a stable-baselines3 .zip written by train.py)")
-    card_path = p.with_suffix(POLICY_CARD_SUFFIX)
-    card: dict[str, Any] = {}
-    if card_path.exists():
-        card = json.loads(card_path.read_text())
-    algos = {"SAC": SAC, "PPO": PPO, "TD3": TD3}
-    order = [card["algo"]] if card.get("algo") in algos else list(algos)
-    last_error: Exception | None = None
-    for algo in order:
-        try:
-            model = algos[algo].load(str(p), device="cpu")
-            break
-        except Exception as err:  # noqa: BLE001 - try the next algorithm class
-            last_error = err
-    else:
-        raise ValueError(f"policy = {str(path)!r}: not a SAC, PPO or TD3 model ({last_error})")
+    card = read_card(p)
+    try:
+        model = POLICY_ALGOS[card["algo"]]().load(str(p), device="cpu")
+    except Exception as err:  # noqa: BLE001 - SB3 raises many types for a corrupt zip
+        raise ValueError(f"policy = {str(path)!r}: not a {card['algo']} model ({err})") from None
     return AgentPolicy(
         model=model,
         name=name or card.get("name") or p.stem,
-        env_id=card.get("env_id", "SMATracking-v0"),
+        env_id=card["env_id"],
         env_kwargs=dict(card.get("env_kwargs", {})),
         frame_stack=int(card.get("frame_stack", 1)),
         history=str(card.get("history", "none")),

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Sequence
 
 from agents.evaluation import CHAPTER_8_CASES, TABLE_6_1, Results
+from sma_gym._io import write_text
 from sma_gym.electrical.multiplexer import io_counts
 from sma_gym.plotting import new_figure, save
 
@@ -201,6 +202,6 @@ def write_report(results: Results, out: Path) -> list[Path]:
         axes[0, 0].legend(fontsize=7)
         paths.append(save(fig, out / "fig9_multiplexed.png"))
     md = out / "evaluation.md"
-    md.write_text("\n".join(sections) + "\n")
-    (out / "evaluation.json").write_text(results.to_json() + "\n")
+    write_text(md, "\n".join(sections) + "\n")
+    write_text(out / "evaluation.json", results.to_json() + "\n")
     return [md, out / "evaluation.json", *(p for p in paths if p is not None)]

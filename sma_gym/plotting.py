@@ -10,6 +10,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from sma_gym._io import atomic_path  # noqa: E402
+
 
 def new_figure(rows: int, cols: int, size: tuple[float, float] = (10, 6)):
     """A figure and a 2-D array of axes."""
@@ -23,6 +25,9 @@ def save(fig, path: Path | str) -> Path:
     for ax in fig.axes:
         ax.grid(True, alpha=0.3)
     fig.tight_layout()
-    fig.savefig(target, dpi=110)
-    plt.close(fig)
+    try:
+        with atomic_path(target) as tmp:  # never a truncated PNG after an interrupt
+            fig.savefig(tmp, dpi=110, format=target.suffix.lstrip(".") or "png")
+    finally:
+        plt.close(fig)
     return target

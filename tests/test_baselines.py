@@ -177,12 +177,13 @@ def test_cli_prints_every_metric_as_json_and_writes_the_report(tmp_path, capsys)
 def test_cli_evaluates_a_saved_agent_beside_the_baselines(tmp_path, capsys):
     from stable_baselines3 import PPO
 
+    from agents.policies import save_policy
+
     env = gym.make("sma_gym:SMATracking-v0")
     model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
     model.learn(64)
     path = tmp_path / "agent.zip"
-    model.save(path)
-    (tmp_path / "agent.json").write_text(json.dumps({"algo": "PPO", "name": "tiny-agent", "env_id": "SMATracking-v0", "env_kwargs": {}, "frame_stack": 1}))
+    save_policy(model, path, {"format": "sma-gym-policy", "algo": "PPO", "name": "tiny-agent", "env_id": "SMATracking-v0", "env_kwargs": {}, "frame_stack": 1})
     code = main(["evaluate", "--experiments", "8", "--baselines", "PID", "--seeds", "1", "--json", "--policy", str(path)])
     records = json.loads(capsys.readouterr().out)
     assert code == 0

@@ -1,0 +1,275 @@
+"""Files in and out, safely: atomic writes, a lock for a busy output folder, capped reads.
+
+* **Atomic writes.** Every file the project writes goes to a temporary name in the same
+  folder and is renamed over the target (``os.replace``, atomic on POSIX and Windows), so
+  Ctrl-C or a crash leaves either the old file or the new one, never half of one.
+* **A busy ``--out``.** :func:`locked_folder` creates ``<folder>/.sma-gym.lock`` with
+  ``O_EXCL`` (exactly one process can), holds it for the run and removes it at exit; a lock
+  whose process is gone (killed, machine rebooted) is stale and taken over.
+* **Capped reads.** :func:`read_text` reads at most a stated number of bytes (``/dev/zero``
+  or a wrong multi-gigabyte file is refused, not read until memory runs out), accepts a
+  UTF-8 byte-order mark, and turns directories and binary files into a ``ValueError`` that
+  names the file.
+* **Checks before work.** :func:`check_output_folder` / :func:`check_output_file` tell
+  whether an output can be created *without creating anything*, so a command can refuse a
+  bad ``--out`` before it spends minutes computing.
+"""
+
+from __future__ import annotations
+
+import atexit
+import contextlib
+import errno
+import hashlib
+import json
+import os
+import socket
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+__all__ = [
+    "LOCK_NAME",
+    "MAX_JSON_BYTES",
+    "atomic_path",
+    "check_output_file",
+    "check_output_folder",
+    "locked_folder",
+    "read_json_object",
+    "read_text",
+    "sha256_file",
+    "write_bytes",
+    "write_json",
+    "write_text",
+]
+
+LOCK_NAME = ".sma-gym.lock"
+MAX_JSON_BYTES = 16 * 1024 * 1024
+"""Model files, sidecars and policy cards are a few kB; 16 MiB is far beyond any real one."""
+
+
+# --------------------------------------------------------------------------------------
+# Atomic writes
+# --------------------------------------------------------------------------------------
+@contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` that becomes ``path`` when the block succeeds.
+
+    For writers that want a file name (``model.save``, ``fig.savefig``): write to the
+    yielded path; it is renamed over ``path`` on success and removed on any error or
+    interrupt. The temporary name keeps the suffix, since some writers append one.
+    """
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".tmp{target.suffix}", dir=target.parent)
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        yield tmp
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+def write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (see the module docstring)."""
+    target = Path(path)
+    with atomic_path(target) as tmp, open(tmp, "wb") as handle:
+        handle.write(data)
+        handle.flush()
+        os.fsync(handle.fileno())
+    return target
+
+
+def write_text(path: str | Path, text: str) -> Path:
+    """Write UTF-8 ``text`` to ``path`` atomically."""
+    return write_bytes(path, text.encode("utf-8"))
+
+
+def write_json(path: str | Path, obj: Any, **dumps_kwargs: Any) -> Path:
+    """Write ``obj`` as indented JSON (and a final newline) to ``path`` atomically."""
+    dumps_kwargs.setdefault("indent", 2)
+    return write_text(path, json.dumps(obj, **dumps_kwargs) + "\n")
+
+
+def sha256_file(path: str | Path) -> str:
+    """Hex SHA-256 of a file's bytes (ties a policy card to the model it describes)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+# --------------------------------------------------------------------------------------
+# Lock for an output folder
+# --------------------------------------------------------------------------------------
+def _pid_alive(pid: int) -> bool:
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def _lock_owner(lock: Path) -> tuple[int, str]:
+    """(pid, host) recorded in a lock file; (0, "") if unreadable (a half-written lock)."""
+    try:
+        pid_text, _, host = lock.read_text(encoding="utf-8").partition("\n")
+        return int(pid_text.strip()), host.strip()
+    except (OSError, ValueError):
+        return 0, ""
+
+
+@contextlib.contextmanager
+def locked_folder(folder: str | Path, what: str = "--out") -> Iterator[Path]:
+    """Hold an exclusive lock on ``folder`` (created if needed) for the block.
+
+    Raises ``ValueError`` naming the folder and the holder's PID if another live process
+    holds it. The lock is also removed at interpreter exit in case the block is skipped
+    by ``os._exit``-free shutdown paths.
+    """
+    target = Path(folder)
+    target.mkdir(parents=True, exist_ok=True)
+    lock = target / LOCK_NAME
+    me = f"{os.getpid()}\n{socket.gethostname()}\n"
+    for _ in range(2):
+        try:
+            fd = os.open(lock, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        except FileExistsError:
+            pid, host = _lock_owner(lock)
+            # Only a PID on this machine can be checked; another host's lock is respected.
+            same_host = host in ("", socket.gethostname())
+            if same_host and not _pid_alive(pid):
+                with contextlib.suppress(FileNotFoundError):
+                    lock.unlink()  # stale: its process is gone
+                continue
+            raise ValueError(
+                f"{what} {str(target)!r}: busy, another sma-gym process (PID {pid} on {host or 'this machine'}) "
+                f"is writing there (lock {lock}); wait for it, choose another folder, or delete the lock "
+                "if that process no longer exists"
+            ) from None
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(me)
+        break
+    else:  # pragma: no cover - lost a race twice in a row
+        raise ValueError(f"{what} {str(target)!r}: could not take the lock {lock}")
+
+    def release() -> None:
+        if _lock_owner(lock)[0] == os.getpid():
+            with contextlib.suppress(FileNotFoundError):
+                lock.unlink()
+
+    atexit.register(release)
+    try:
+        yield target
+    finally:
+        release()
+        atexit.unregister(release)
+
+
+# --------------------------------------------------------------------------------------
+# Checks before work
+# --------------------------------------------------------------------------------------
+def _nearest_existing(path: Path) -> Path:
+    probe = path
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    return probe
+
+
+def _check_writable_dir(folder: Path, what: str, target: Path) -> None:
+    if not folder.is_dir():
+        raise ValueError(f"{what} {str(target)!r}: {str(folder)!r} is not a folder")
+    try:
+        # Actually try, since os.access is optimistic (root, network file systems).
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError as err:
+        raise ValueError(f"{what} {str(target)!r}: cannot write in {str(folder)!r} ({err.strerror or err})") from None
+
+
+def check_output_folder(folder: str | Path, what: str = "--out", *, must_be_empty: bool = False) -> Path:
+    """Check that ``folder`` can be created and written, creating nothing.
+
+    ``must_be_empty``: refuse a folder that already has files (another run's outputs
+    would be mixed with this one's).
+    """
+    target = Path(folder)
+    if target.exists() and not target.is_dir():
+        raise ValueError(f"{what} {str(target)!r}: exists and is not a folder")
+    _check_writable_dir(_nearest_existing(target), what, target)
+    if must_be_empty and target.is_dir():
+        entries = sorted(p.name for p in target.iterdir())
+        if entries:
+            shown = ", ".join(entries[:5]) + (", ..." if len(entries) > 5 else "")
+            raise ValueError(
+                f"{what} {str(target)!r}: not empty ({shown}); a run never mixes its files with another's: "
+                "choose a new folder or pass --overwrite"
+            )
+    return target
+
+
+def check_output_file(path: str | Path, what: str = "--out", *, overwrite: bool = False) -> Path:
+    """Check that file ``path`` can be written (its folder created), creating nothing."""
+    target = Path(path)
+    if target.is_dir():
+        raise ValueError(f"{what} {str(target)!r}: is a folder, expected a file name")
+    if target.exists() and not overwrite:
+        raise ValueError(f"{what} {str(target)!r}: exists; pass --overwrite to replace it")
+    _check_writable_dir(_nearest_existing(target.parent), what, target)
+    return target
+
+
+# --------------------------------------------------------------------------------------
+# Capped reads
+# --------------------------------------------------------------------------------------
+def _mib(n: int) -> str:
+    return f"{n / (1024 * 1024):g} MiB"
+
+
+def read_text(path: str | Path, max_bytes: int, what: str = "file") -> str:
+    """The UTF-8 text of ``path`` (a byte-order mark is dropped), at most ``max_bytes``.
+
+    Raises ``ValueError`` naming the file for a missing file, a directory, a file larger
+    than ``max_bytes`` (read is capped: ``/dev/zero`` is refused, not read forever) and
+    bytes that are not UTF-8 text.
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise ValueError(f"{what} {str(p)!r}: is a folder, expected a file")
+    try:
+        with open(p, "rb") as handle:
+            data = handle.read(max_bytes + 1)
+    except FileNotFoundError:
+        raise ValueError(f"{what} {str(p)!r} does not exist") from None
+    except OSError as err:
+        if err.errno == errno.EISDIR:
+            raise ValueError(f"{what} {str(p)!r}: is a folder, expected a file") from None
+        raise ValueError(f"{what} {str(p)!r}: cannot read ({err.strerror or err})") from None
+    if len(data) > max_bytes:
+        raise ValueError(f"{what} {str(p)!r}: larger than {_mib(max_bytes)}, the most this reader accepts; not read further")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        raise ValueError(
+            f"{what} {str(p)!r}: not UTF-8 text (byte {err.start} is 0x{data[err.start]:02x}; a binary file?)"
+        ) from None
+
+
+def read_json_object(path: str | Path, what: str = "file", max_bytes: int = MAX_JSON_BYTES) -> dict[str, Any]:
+    """A JSON object (``{...}``) from ``path``; anything else is a ``ValueError`` naming the file."""
+    text = read_text(path, max_bytes, what)
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{what} {str(path)!r}: not valid JSON (line {err.lineno}, column {err.colno}: {err.msg})") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{what} {str(path)!r}: expected a JSON object {{...}}, got a JSON {type(data).__name__}")
+    return data
