@@ -1,4 +1,9 @@
-"""The ``sma-gym`` command: ``sma-gym <subcommand> --help`` for each."""
+"""The ``sma-gym`` command: ``sma-gym <subcommand> --help`` for each.
+
+Every subcommand checks all its arguments (an ``--out`` that cannot be written included)
+before it does any work, and exits 2 with a message naming the argument; an output folder
+is locked while a command writes to it (:func:`sma_gym._io.locked_folder`).
+"""
 
 from __future__ import annotations
 
@@ -9,8 +14,13 @@ from typing import Sequence
 
 def _fidelity(args: argparse.Namespace) -> int:
     from sma_gym import fidelity
+    from sma_gym._io import check_output_folder, locked_folder
 
-    return fidelity.main(args.out, args.json, quick=args.quick)
+    if args.out is None:
+        return fidelity.main(args.out, args.json, quick=args.quick)
+    check_output_folder(args.out)
+    with locked_folder(args.out):
+        return fidelity.main(args.out, args.json, quick=args.quick)
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -21,30 +31,59 @@ def _bench(args: argparse.Namespace) -> int:
 
 def _evaluate(args: argparse.Namespace) -> int:
     from agents import evaluation
+    from agents.policies import load_policy
+    from sma_gym._io import check_output_folder, locked_folder
 
     experiments = [e.strip() for e in args.experiments.split(",") if e.strip()]
     baselines = [b.strip() for b in args.baselines.split(",") if b.strip()] if args.baselines else None
-    return evaluation.main(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
+    # Everything checked before the (long) evaluation starts.
+    for e in experiments:
+        if e not in evaluation.EXPERIMENTS:
+            raise ValueError(f"--experiments {e!r}: expected a comma-separated subset of {', '.join(evaluation.EXPERIMENTS)}")
+    if not experiments:
+        raise ValueError(f"--experiments {args.experiments!r}: expected at least one of {', '.join(evaluation.EXPERIMENTS)}")
+    if args.seeds < 1:
+        raise ValueError(f"--seeds {args.seeds}: expected an integer >= 1")
+    for b in baselines or []:
+        evaluation.baseline(b)
+    for policy in args.policy or []:
+        load_policy(policy)  # card, hash and zip checked now, not after the baselines ran
+    if args.out is None:
+        return evaluation.main(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
+    check_output_folder(args.out)
+    with locked_folder(args.out):
+        return evaluation.main(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
 
 
 def _diagnose(args: argparse.Namespace) -> int:
     import json
-    from pathlib import Path
 
+    from sma_gym._io import check_output_folder, locked_folder
     from sma_gym.data import MeasuredDataError, load_traces
+    from sma_gym.data.measured import DIAGNOSIS_MIN_ROWS
     from sma_gym.diagnosis.workflow import diagnose, write_outputs
+    from sma_gym.effects import EFFECTS
     from sma_gym.model import load_model
 
+    out = check_output_folder(args.out)
     try:
-        fit = load_traces(args.files)
-        held = load_traces(args.heldout or [])
+        fit = load_traces(args.files, DIAGNOSIS_MIN_ROWS)
+        held = load_traces(args.heldout or [], DIAGNOSIS_MIN_ROWS)
     except MeasuredDataError as err:
         print(f"sma-gym diagnose: invalid measured data:\n{err}", file=sys.stderr)
         return 2
     nominal = load_model(args.model)
     effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
-    result = diagnose(fit, held, nominal, effects)
-    paths = write_outputs(result, Path(args.out), fit, held, nominal)
+    for name in effects or []:
+        if name not in EFFECTS:
+            raise ValueError(f"--effects {name!r}: expected a comma-separated subset of {', '.join(EFFECTS)}")
+
+    def progress(message: str) -> None:
+        print(f"sma-gym diagnose: {message}", file=sys.stderr, flush=True)
+
+    with locked_folder(out):
+        result = diagnose(fit, held, nominal, effects, progress=progress)
+        paths = write_outputs(result, out, fit, held, nominal)
     if args.json:
         from sma_gym.diagnosis.workflow import _json_default
 

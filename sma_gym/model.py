@@ -19,13 +19,13 @@ File format (JSON)::
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping, Union
 
+from sma_gym._io import read_json_object, write_json
 from sma_gym.effects import EffectSet, EffectSetting
 from sma_gym.params import ActuatorParams, preset, preset_names
 
@@ -78,6 +78,10 @@ class ModelConfig:
             raise ValueError(f"{source}: 'format' = {data.get('format')!r}: expected {FORMAT_NAME!r}")
         if data.get("version") != FORMAT_VERSION:
             raise ValueError(f"{source}: 'version' = {data.get('version')!r}: expected {FORMAT_VERSION}")
+        for key in ("actuator", "effects"):
+            if not isinstance(data.get(key, {}), Mapping):
+                kind = type(data[key]).__name__
+                raise ValueError(f"{source}: {key!r} is a JSON {kind}: expected a JSON object {{name: {{...}}}}")
         try:
             actuator = ActuatorParams.from_dict(data.get("actuator", {}))
             effects = EffectSet.of(data.get("effects", {}))
@@ -87,20 +91,13 @@ class ModelConfig:
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write the configuration as JSON (see the module docstring)."""
-        target = Path(path)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
-        return target
+        return write_json(path, self.to_dict())
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> "ModelConfig":
+        """Read a model file; any problem is a ``ValueError`` naming the file (see :mod:`sma_gym._io`)."""
         source = Path(path)
-        try:
-            data = json.loads(source.read_text())
-        except FileNotFoundError:
-            raise ValueError(f"model file {str(source)!r} does not exist") from None
-        except json.JSONDecodeError as err:
-            raise ValueError(f"model file {str(source)!r} is not valid JSON: {err}") from None
+        data = read_json_object(source, "model file")
         return cls.from_dict(data, source=f"model file {str(source)!r}")
 
 

@@ -25,18 +25,23 @@ named ``<file>.json`` (e.g. ``step01.csv.json``; ``step01.json`` is accepted too
 Loading checks everything and reports *every* problem with file, row and column (missing
 columns, non-monotonic time, NaN where not allowed, duty outside [0, 1], unit slips such
 as a position in millimetres or time in milliseconds). Files are only read, never written.
+A UTF-8 byte-order mark (Excel's "CSV UTF-8") and blank lines at the end are accepted; a
+file needs at least two samples (``sma-gym diagnose`` loads with ``min_rows=DIAGNOSIS_MIN_ROWS``:
+it fits more than ten and holds out 30 %) and at most ``MAX_CSV_BYTES`` (the read stops there).
 """
 
 from __future__ import annotations
 
 import csv
-import json
+import io
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
+
+from sma_gym._io import read_json_object, read_text, write_json, write_text
 
 REQUIRED = ("t", "duty", "position")
 OPTIONAL = ("resistance", "current", "supply_voltage", "force")
@@ -54,6 +59,12 @@ MAX_ABS_POSITION_M = 0.1
 MAX_RESISTANCE_OHM = 1000.0
 MAX_CURRENT_A = 50.0
 MAX_FORCE_N = 1000.0
+
+DIAGNOSIS_MIN_ROWS = 20
+"""Fewest samples a file given to the diagnosis may have: it fits more than ten samples of
+each output after holding out the last 30 % of a file, so fewer cannot be diagnosed."""
+MAX_CSV_BYTES = 512 * 1024 * 1024
+"""Largest file read (about 5 million rows); bigger is refused rather than read."""
 
 
 class MeasuredDataError(ValueError):
@@ -139,8 +150,11 @@ def _parse_float(text: str) -> float:
     return float(text)
 
 
-def load_trace(path: str | Path) -> MeasuredTrace:
-    """Load and validate one CSV file (and its sidecar). Raises :class:`MeasuredDataError`."""
+def load_trace(path: str | Path, min_rows: int = 2) -> MeasuredTrace:
+    """Load and validate one CSV file (and its sidecar). Raises :class:`MeasuredDataError`.
+
+    ``min_rows``: fewest data rows accepted (``DIAGNOSIS_MIN_ROWS`` for a diagnosis).
+    """
     p = Path(path)
     where = str(p)
     if not p.exists():
@@ -149,10 +163,12 @@ def load_trace(path: str | Path) -> MeasuredTrace:
         raise MeasuredDataError([f"{where}: is a directory, expected a CSV file"])
     problems: list[str] = []
     try:
-        with p.open(newline="") as handle:
-            rows = list(csv.reader(handle))
-    except UnicodeDecodeError:
-        raise MeasuredDataError([f"{where}: not a text CSV file"]) from None
+        text = read_text(p, MAX_CSV_BYTES, "measured data")
+    except ValueError as err:
+        raise MeasuredDataError([str(err)]) from None
+    rows = list(csv.reader(io.StringIO(text, newline="")))
+    while rows and not any(field.strip() for field in rows[-1]):
+        rows.pop()  # blank lines at the end (editors and spreadsheets add them)
     if not rows:
         raise MeasuredDataError([f"{where}: empty file, expected a header row {','.join(REQUIRED)}"])
     header = [h.strip() for h in rows[0]]
@@ -169,6 +185,11 @@ def load_trace(path: str | Path) -> MeasuredTrace:
     data_rows = rows[1:]
     if len(data_rows) < 2:
         raise MeasuredDataError([f"{where}: {len(data_rows)} data row(s), expected at least 2"])
+    if len(data_rows) < min_rows:  # reported with the file's other problems
+        problems.append(
+            f"{where}: {len(data_rows)} data row(s), expected at least {min_rows} "
+            "(the diagnosis fits more than ten samples after holding out the last 30 % of a file)"
+        )
     columns: dict[str, np.ndarray] = {name: np.full(len(data_rows), math.nan) for name in header}
     for i, row in enumerate(data_rows):
         line = i + 2
@@ -244,12 +265,9 @@ def load_trace(path: str | Path) -> MeasuredTrace:
     side = sidecar_path(p)
     if side is not None:
         try:
-            raw = json.loads(side.read_text())
-        except json.JSONDecodeError as err:
-            problems.append(f"{side}: not valid JSON: {err}")
-            raw = {}
-        if not isinstance(raw, dict):
-            problems.append(f"{side}: expected a JSON object")
+            raw = read_json_object(side, "sidecar")
+        except ValueError as err:
+            problems.append(str(err))
             raw = {}
         for key, value in raw.items():
             if key in SIDECAR_KEYS:
@@ -279,13 +297,13 @@ def load_trace(path: str | Path) -> MeasuredTrace:
     )
 
 
-def load_traces(paths: Sequence[str | Path]) -> list[MeasuredTrace]:
+def load_traces(paths: Sequence[str | Path], min_rows: int = 2) -> list[MeasuredTrace]:
     """Load several files, collecting the problems of all of them before raising."""
     traces = []
     problems: list[str] = []
     for path in paths:
         try:
-            traces.append(load_trace(path))
+            traces.append(load_trace(path, min_rows))
         except MeasuredDataError as err:
             problems.extend(err.problems)
     if problems:
@@ -298,7 +316,6 @@ def write_trace(path: str | Path, trace: MeasuredTrace, *, overwrite: bool = Fal
     p = Path(path)
     if p.exists() and not overwrite:
         raise FileExistsError(f"{p} exists; refusing to overwrite it")
-    p.parent.mkdir(parents=True, exist_ok=True)
     cols = ["t", "duty", "position"]
     arrays = [trace.t, trace.duty, trace.position]
     for name in OPTIONAL:
@@ -306,14 +323,21 @@ def write_trace(path: str | Path, trace: MeasuredTrace, *, overwrite: bool = Fal
         if value is not None:
             cols.append(name)
             arrays.append(value)
-    with p.open("w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(cols)
-        for row in zip(*arrays):
-            writer.writerow(["" if not math.isfinite(v) else repr(float(v)) for v in row])
+    buffer = io.StringIO(newline="")
+    writer = csv.writer(buffer)
+    writer.writerow(cols)
+    for row in zip(*arrays):
+        writer.writerow(["" if not math.isfinite(v) else repr(float(v)) for v in row])
+    # Sidecar first, then the CSV (each atomic): a CSV never appears without its conditions.
     if trace.conditions:
-        Path(str(p) + ".json").write_text(json.dumps(dict(trace.conditions), indent=2) + "\n")
+        write_json(sidecar_write_path(p), dict(trace.conditions))
+    write_text(p, buffer.getvalue())
     return p
+
+
+def sidecar_write_path(csv_path: str | Path) -> Path:
+    """Where :func:`write_trace` puts the sidecar of ``csv_path``: ``<file>.json``."""
+    return Path(str(csv_path) + ".json")
 
 
 def find_real_data_dir() -> Path | None:

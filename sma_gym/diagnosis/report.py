@@ -9,6 +9,7 @@ from typing import Sequence
 
 import numpy as np
 
+from sma_gym._io import write_text
 from sma_gym.data.measured import MeasuredTrace
 from sma_gym.diagnosis import fitting
 from sma_gym.diagnosis.workflow import CONTROL_PERIOD_S, Diagnosis
@@ -91,7 +92,7 @@ def write_report(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrac
             lines.append("")
     lines += ["## Plots", ""] + [f"![{p.stem}]({p.name})" for p in plots]
     md = out / "diagnosis.md"
-    md.write_text("\n".join(lines) + "\n")
+    write_text(md, "\n".join(lines) + "\n")
     return md
 
 

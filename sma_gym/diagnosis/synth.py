@@ -20,7 +20,6 @@ and diagnosed on a held-out file with a different excitation.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,7 +27,14 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from sma_gym.data.measured import MeasuredTrace, write_trace
+from sma_gym._io import check_output_file, write_json
+from sma_gym._validation import require_int_range, require_range
+from sma_gym.data.measured import (
+    DIAGNOSIS_MIN_ROWS,
+    MeasuredTrace,
+    sidecar_write_path,
+    write_trace,
+)
 from sma_gym.effects import EFFECTS
 from sma_gym.model import ModelConfig, load_model
 from sma_gym.simulator import Simulator
@@ -37,6 +43,15 @@ EXCITATIONS = ("steps", "ramps", "sine", "chirp", "random")
 CONTROL_PERIOD_S = 1e-3
 KP_PER_M = 1000.0
 REST_STEPS = 1000  # 1 s at rest before the excitation starts
+MIN_DURATION_S = 2.0
+"""The first second is at rest; a trace needs at least another second of excitation."""
+MAX_SAMPLE_PERIOD_S = 0.1
+"""Slower than 10 Hz misses the actuator's thermal transients (time constants of ~1 s)."""
+MIN_SAMPLES = 100
+"""Fewest samples written (well above the loader's minimum, so the diagnosis has data to fit)."""
+MAX_NOISE_FRACTION = 0.05
+"""Largest sensor noise or resolution, as a fraction of the stroke or cold resistance: more
+would bury the signal a diagnosis looks for (and 1 m of position noise is a unit slip)."""
 
 
 def excitation(kind: str, duration_s: float, stroke_m: float, rng: np.random.Generator) -> np.ndarray:
@@ -209,12 +224,28 @@ def generate(spec: SynthSpec) -> tuple[MeasuredTrace, dict[str, Any]]:
     return trace, labels
 
 
+def output_paths(path: Path) -> tuple[Path, Path, Path]:
+    """The CSV, its sidecar and the labels file that :func:`write` writes for ``path``."""
+    return path, sidecar_write_path(path), path.with_name(path.stem + ".labels.json")
+
+
+def check_outputs(path: Path, overwrite: bool) -> None:
+    """Refuse (``ValueError``) unless all three outputs can be written; creates nothing."""
+    for target in output_paths(path):
+        check_output_file(target, "--out", overwrite=overwrite)
+
+
 def write(spec: SynthSpec, path: Path, overwrite: bool = False) -> tuple[Path, Path]:
-    """Write ``path`` (CSV), its sidecar ``path.json`` and the labels ``<stem>.labels.json``."""
+    """Write ``path`` (CSV), its sidecar ``path.json`` and the labels ``<stem>.labels.json``.
+
+    Refuses, before any work, to replace any of them unless ``overwrite``; each is written
+    atomically, the CSV last (a CSV on disk always has its sidecar and labels).
+    """
+    check_outputs(path, overwrite)
     trace, labels = generate(spec)
-    csv_path = write_trace(path, trace, overwrite=overwrite)
-    labels_path = path.with_name(path.stem + ".labels.json")
-    labels_path.write_text(json.dumps(labels, indent=2) + "\n")
+    _, _, labels_path = output_paths(path)
+    write_json(labels_path, labels)
+    csv_path = write_trace(path, trace, overwrite=True)
     return csv_path, labels_path
 
 
@@ -236,8 +267,40 @@ def parse_effect(text: str | None) -> tuple[str | None, dict[str, float] | None]
     return name, values or None
 
 
+def check_spec(spec: SynthSpec) -> None:
+    """Every number of ``spec`` within its range (``ValueError`` naming the option), before any work.
+
+    A trace ``diagnose`` would reject, or one that costs gigabytes, is never generated.
+    """
+    from sma_gym.diagnosis.workflow import MAX_DURATION_S
+
+    require_range("--duration", spec.duration_s, MIN_DURATION_S, MAX_DURATION_S, "s", lower_open=True)
+    period = require_range("--sample-period", spec.sample_period_s, CONTROL_PERIOD_S, MAX_SAMPLE_PERIOD_S, "s")
+    steps = period / CONTROL_PERIOD_S
+    if abs(steps - round(steps)) > 1e-6 * steps:
+        raise ValueError(
+            f"--sample-period = {spec.sample_period_s!r}: expected a whole multiple of the {CONTROL_PERIOD_S:g} s "
+            "control period the trace is simulated at (e.g. 0.001, 0.002, 0.01)"
+        )
+    samples = int(spec.duration_s / period)
+    if samples < max(MIN_SAMPLES, DIAGNOSIS_MIN_ROWS):
+        raise ValueError(
+            f"--sample-period = {spec.sample_period_s!r} with --duration = {spec.duration_s!r}: {samples} samples, "
+            f"expected at least {max(MIN_SAMPLES, DIAGNOSIS_MIN_ROWS)} (shorter period or longer duration)"
+        )
+    p = spec.model.actuator
+    stroke = min(p.driver.end_of_travel_m, p.wire.max_stroke_m)
+    require_range("--position-noise", spec.position_noise_m, 0.0, MAX_NOISE_FRACTION * stroke, "m, 5 % of the stroke")
+    require_range("--position-resolution", spec.position_resolution_m, 0.0, MAX_NOISE_FRACTION * stroke, "m, 5 % of the stroke")
+    require_range("--resistance-noise", spec.resistance_noise_ohm, 0.0, MAX_NOISE_FRACTION * p.wire.cold_resistance_ohm, "ohm, 5 % of the cold resistance")
+    require_range("--perturb", spec.perturb, 0.0, 0.5, "relative; beyond 50 % the nominal model means nothing")
+    require_int_range("--seed", spec.seed, 0, 2**63 - 1)
+
+
 def main(args) -> int:
     name, values = parse_effect(args.effect)
+    if name is not None and args.form not in EFFECTS[name].forms:
+        raise ValueError(f"--form {args.form!r}: effect {name!r} has forms {EFFECTS[name].forms}")
     model = load_model(args.model)
     spec = SynthSpec(
         model=model,
@@ -254,13 +317,7 @@ def main(args) -> int:
         sample_period_s=args.sample_period,
         seed=args.seed,
     )
-    if name is not None and args.form not in EFFECTS[name].forms:
-        raise ValueError(f"--form {args.form!r}: effect {name!r} has forms {EFFECTS[name].forms}")
-    if args.duration <= 2.0:
-        raise ValueError(f"--duration {args.duration!r}: expected more than 2 s")
-    try:
-        csv_path, labels_path = write(spec, Path(args.out), overwrite=args.overwrite)
-    except FileExistsError:
-        raise ValueError(f"--out {args.out!r} exists; pass --overwrite to replace it") from None
+    check_spec(spec)
+    csv_path, labels_path = write(spec, Path(args.out), overwrite=args.overwrite)
     print(f"wrote {csv_path} (+ sidecar) and labels {labels_path}")
     return 0

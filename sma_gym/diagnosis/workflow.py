@@ -32,13 +32,14 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
-from sma_gym.data.measured import MeasuredTrace
+from sma_gym.data.measured import DIAGNOSIS_MIN_ROWS, MeasuredTrace
 from sma_gym.diagnosis import fitting
 from sma_gym.diagnosis.localise import localise, summary
 from sma_gym.effects import EFFECTS
@@ -50,6 +51,9 @@ AMBIGUITY_MARGIN = 0.05
 STRUCTURED_RATIO = 3.0
 HOLDOUT_FRACTION = 0.3
 CONTROL_PERIOD_S = 1e-3
+MAX_DURATION_S = 1800.0
+"""Longest file diagnosed: every candidate simulates each 1 ms step many times over, so an
+hour of data takes hours; the informative part of a longer recording should be cut out."""
 
 #: What would tell two candidates apart (for "ambiguous" verdicts).
 SEPARATING_EXPERIMENTS = {
@@ -122,9 +126,22 @@ def diagnose(
     nominal: ModelConfig | None = None,
     effects: Sequence[str] | None = None,
     control_period_s: float = CONTROL_PERIOD_S,
+    progress: Callable[[str], None] | None = None,
 ) -> Diagnosis:
-    """Run the workflow on measured traces (see the module docstring)."""
+    """Run the workflow on measured traces (see the module docstring).
+
+    ``progress``, if given, is called with a line per stage and per candidate (the CLI
+    prints them to stderr: a long diagnosis is never silent for minutes). Files sampled
+    faster than ``control_period_s`` are decimated to it (the model is compared at control
+    steps, denser samples add nothing but time); files longer than ``MAX_DURATION_S`` are
+    refused with the reason.
+    """
     started = time.perf_counter()
+
+    def say(message: str) -> None:
+        if progress is not None:
+            progress(f"[{time.perf_counter() - started:6.1f} s] {message}")
+
     nominal = nominal or ModelConfig()
     names = list(EFFECTS) if effects is None else list(effects)
     for name in names:
@@ -132,6 +149,9 @@ def diagnose(
             raise ValueError(f"effect = {name!r}: expected one of {', '.join(EFFECTS)}")
     if not fit_traces:
         raise ValueError("no files to fit: give at least one measured trace")
+    fit_traces = [_decimated(t, control_period_s, say) for t in fit_traces]
+    heldout_traces = [_decimated(t, control_period_s, say) for t in heldout_traces]
+    say(f"fitting {len(fit_traces)} file(s), {len(names)} candidate effect(s) plus the nominal refit")
     if heldout_traces:
         fit_data = [fitting.prepare(t, control_period_s) for t in fit_traces]
         held_data = [fitting.prepare(t, control_period_s) for t in heldout_traces]
@@ -148,16 +168,19 @@ def diagnose(
     held_problem = fitting.Problem(nominal, held_data, control_period_s)
 
     # 1-2. Nominal model on the measured input, and where it goes wrong.
+    say("simulating the nominal model and localising its residuals")
     where = _where(nominal, fit_data, control_period_s)
 
     # 3. Nominal refit, then every effect with the nominal parameters.
     base_params = problem.nominal_parameters()
+    say(f"candidate 1/{len(names) + 1}: nominal refit")
     refit = problem.fit("nominal refit", base_params)
     # One effective sample count for every candidate (from the reference's residuals), so
     # that their BICs are comparable.
     n_eff = max(len(base_params) + 2.0, refit.n / refit.correlation_time_samples)
     candidates = [_candidate(refit, held_problem, n_eff)]
-    for name in names:
+    for k, name in enumerate(names, start=2):
+        say(f"candidate {k}/{len(names) + 1}: {name}")
         params = base_params + fitting.effect_parameters(name)
         candidates.append(_candidate(problem.fit(name, params, warm=refit.values_by_name()), held_problem, n_eff))
     ref = candidates[0]
@@ -189,6 +212,7 @@ def diagnose(
     notes = f"sma-gym diagnose: verdict {verdict}" + (f" ({effect})" if effect else "")
     corrected = ModelConfig(corrected.actuator, corrected.effects, notes=notes)
 
+    say(f"verdict {verdict}; measuring the gap before and after")
     gap_before = _gaps(nominal, 0.0, fit_data, held_data, control_period_s)
     gap_after = _gaps(corrected, chosen.fit.offset, fit_data, held_data, control_period_s)
     gap_refit = _gaps(ref.fit.model, ref.fit.offset, fit_data, held_data, control_period_s)
@@ -210,6 +234,35 @@ def diagnose(
         separating_experiment=separating,
         noise=noise,
         seconds=time.perf_counter() - started,
+    )
+
+
+def _decimated(trace: MeasuredTrace, control_period_s: float, say: Callable[[str], None]) -> MeasuredTrace:
+    """``trace`` at no more than one sample per control period; refuse a too short or overlong file."""
+    if len(trace.t) < DIAGNOSIS_MIN_ROWS:
+        raise ValueError(
+            f"{trace.path}: {len(trace.t)} samples, expected at least {DIAGNOSIS_MIN_ROWS} "
+            "(the diagnosis fits more than ten samples after holding out the last 30 % of a file)"
+        )
+    if trace.duration_s > MAX_DURATION_S:
+        raise ValueError(
+            f"{trace.path}: {trace.duration_s:.0f} s of data; diagnosis accepts at most {MAX_DURATION_S:.0f} s per file "
+            "(each candidate re-simulates every 1 ms step many times); cut the file to the part with the behaviour to explain"
+        )
+    every = int(control_period_s / trace.sample_period_s + 1e-9)
+    if every <= 1:
+        return trace
+    say(
+        f"{trace.name}: {len(trace.t)} samples every {trace.sample_period_s:g} s; keeping every {every}th "
+        f"(the model is compared at its {control_period_s:g} s control steps, denser samples only cost time)"
+    )
+    pick = slice(None, None, every)
+    return replace(
+        trace,
+        t=trace.t[pick],
+        duty=trace.duty[pick],
+        position=trace.position[pick],
+        **{name: None if getattr(trace, name) is None else getattr(trace, name)[pick] for name in ("resistance", "current", "supply_voltage", "force")},
     )
 
 
@@ -268,15 +321,18 @@ def _describe(c: Candidate) -> dict[str, Any]:
 
 
 def write_outputs(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrace], heldout_traces: Sequence[MeasuredTrace], nominal: ModelConfig) -> dict[str, Path]:
-    """Corrected model file, markdown report, JSON and plots into ``out``."""
-    import json
+    """Corrected model file, markdown report, JSON and plots into ``out``.
 
+    Each file is written atomically, and the corrected model last: an interrupted run
+    never leaves a corrected model without the report and JSON that justify it.
+    """
+    from sma_gym._io import write_json
     from sma_gym.diagnosis.report import write_report
 
     out.mkdir(parents=True, exist_ok=True)
-    model_path = result.corrected_model.save(out / "corrected_model.json")
-    (out / "diagnosis.json").write_text(json.dumps(result.as_dict(), indent=2, default=_json_default) + "\n")
     report = write_report(result, out, fit_traces, heldout_traces, nominal)
+    write_json(out / "diagnosis.json", result.as_dict(), default=_json_default)
+    model_path = result.corrected_model.save(out / "corrected_model.json")
     return {"model": model_path, "json": out / "diagnosis.json", "report": report}
 
 
