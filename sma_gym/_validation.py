@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+
 
 def _fmt(value: Any) -> str:
     return repr(value)
@@ -77,6 +79,33 @@ def require_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
     if value not in choices:
         raise ValueError(f"{name} = {_fmt(value)}: expected one of {', '.join(map(repr, choices))}")
     return value
+
+
+def require_action(action: Any, n: int) -> np.ndarray:
+    """An env action as a float64 array of shape ``(n,)``, or a ``ValueError`` naming the expected shape.
+
+    Accepted: a numeric array or sequence of shape ``(n,)`` (any float or int dtype: what
+    Gymnasium's and SB3's checkers send is float32 or float64), and for ``n == 1`` a plain
+    number. Refused: other shapes (``(2,)`` to a single env, ``(1, 1)``, ``(0,)``), strings,
+    booleans, complex or object values, and NaN/inf.
+    """
+    expected = f"expected a float array of shape ({n},) (dtype float32 or float64) with finite values in [-1, 1]"
+    if isinstance(action, (str, bytes)):
+        raise ValueError(f"action = {action!r}: a string; {expected}")
+    try:
+        a = np.asarray(action)
+    except (TypeError, ValueError):
+        raise ValueError(f"action = {action!r}: {expected}") from None
+    if a.dtype.kind not in "fiu":
+        raise ValueError(f"action = {action!r} (dtype {a.dtype}): {expected}")
+    if a.shape == () and n == 1:
+        a = a.reshape(1)
+    if a.shape != (n,):
+        raise ValueError(f"action has shape {a.shape}: {expected}")
+    a = a.astype(np.float64)
+    if not np.isfinite(a).all():
+        raise ValueError(f"action = {action!r}: {expected}")
+    return a
 
 
 def _unit(unit: str) -> str:

@@ -12,6 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -71,3 +72,396 @@ def test_import_and_help_work_on_a_read_only_install_without_a_cache_dir(tmp_pat
     finally:
         for path in tmp_path.rglob("*"):
             path.chmod(stat.S_IRWXU)
+
+
+# --- item 2: train.py never mixes runs; cards are tied to their zip ---------------------------
+
+
+def _tiny_model():
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    env = gym.make("sma_gym:SMATracking-v0")
+    return PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
+
+
+CARD = {"format": "sma-gym-policy", "algo": "PPO", "name": "tiny", "env_id": "SMATracking-v0", "env_kwargs": {}, "frame_stack": 1}
+
+
+def test_train_refuses_a_non_empty_out_unless_overwrite_and_says_so_in_help(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "best_model.zip").write_bytes(b"an older run's model")
+    proc = _run([sys.executable, str(ROOT / "train.py"), "--quick", "--no-progress", "--out", str(out)])
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert "not empty" in proc.stderr and "--overwrite" in proc.stderr and str(out) in proc.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["best_model.zip"]
+    help_ = _run([sys.executable, str(ROOT / "train.py"), "--help"])
+    assert "--overwrite" in help_.stdout and "non-empty" in help_.stdout
+
+
+def test_prepare_out_deletes_a_previous_runs_outputs_only(tmp_path):
+    sys.path.insert(0, str(ROOT))
+    try:
+        import train
+    finally:
+        sys.path.remove(str(ROOT))
+    (tmp_path / "best_model.zip").write_bytes(b"old")
+    (tmp_path / "checkpoints").mkdir()
+    (tmp_path / "notes.txt").write_text("mine")
+    train.prepare_out(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_cards_carry_the_zip_hash_and_the_loader_refuses_any_mismatch(tmp_path):
+    import json
+
+    from agents.policies import load_policy, save_policy
+
+    model = _tiny_model()
+    path = save_policy(model, tmp_path / "agent.zip", CARD)
+    card_path = tmp_path / "agent.json"
+    card = json.loads(card_path.read_text())
+    assert len(card["model_sha256"]) == 64
+    assert load_policy(path).name == "tiny"
+    # Another model written over the zip (a stale card): refused, naming the files.
+    path.write_bytes(path.read_bytes() + b"another run")
+    with pytest.raises(ValueError, match="SHA-256 mismatch") as err:
+        load_policy(path)
+    assert str(card_path) in str(err.value)
+    save_policy(model, path, CARD)
+    cases = {
+        "missing": None,
+        "malformed": "{not json",
+        "a JSON list": json.dumps([card]),
+        "unknown env": json.dumps({**json.loads(card_path.read_text()), "env_id": "SMAWarp-v9"}),
+        "no hash": json.dumps({k: v for k, v in json.loads(card_path.read_text()).items() if k != "model_sha256"}),
+        "binary": b"\x89PNG\r\n\x1a\n\x00\xff",
+    }
+    good = card_path.read_bytes()
+    for case, text in cases.items():
+        if text is None:
+            card_path.unlink()
+        elif isinstance(text, bytes):
+            card_path.write_bytes(text)
+        else:
+            card_path.write_text(text)
+        with pytest.raises(ValueError) as err:
+            load_policy(path)
+        assert str(card_path) in str(err.value), case
+        card_path.write_bytes(good)
+    assert load_policy(path).env_id == "SMATracking-v0"
+
+
+# --- item 5: atomic writes and a lock for a busy --out ----------------------------------------
+
+
+def test_atomic_writes_leave_the_old_file_or_the_new_one(tmp_path):
+    from sma_gym._io import atomic_path, write_json
+
+    target = write_json(tmp_path / "a.json", {"v": 1})
+    with pytest.raises(KeyboardInterrupt), atomic_path(target) as tmp:
+        tmp.write_text('{"v": 2, "half')
+        raise KeyboardInterrupt
+    assert target.read_text() == '{\n  "v": 1\n}\n'
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json"]
+
+
+def test_a_busy_out_is_refused_and_a_stale_lock_is_taken_over(tmp_path):
+    from sma_gym._io import LOCK_NAME, locked_folder
+
+    with locked_folder(tmp_path / "out"):
+        with pytest.raises(ValueError, match="busy") as err:
+            with locked_folder(tmp_path / "out"):
+                pass
+        assert str(os.getpid()) in str(err.value)
+    assert not (tmp_path / "out" / LOCK_NAME).exists()
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    (tmp_path / "out" / LOCK_NAME).write_text(f"{dead.pid}\n")
+    with locked_folder(tmp_path / "out"):
+        assert (tmp_path / "out" / LOCK_NAME).read_text().startswith(str(os.getpid()))
+
+
+def test_diagnose_into_a_busy_out_exits_2_and_writes_nothing(tmp_path, capsys):
+    from sma_gym._io import locked_folder
+    from sma_gym.cli import main
+
+    csv = _synth(tmp_path, "s.csv")
+    with locked_folder(tmp_path / "d"):
+        assert main(["diagnose", str(csv), "--out", str(tmp_path / "d"), "--effects", "sensor_lag"]) == 2
+    assert "busy" in capsys.readouterr().err
+    assert [p.name for p in (tmp_path / "d").iterdir()] == []
+
+
+def _synth(tmp_path: Path, name: str, *extra: str) -> Path:
+    from sma_gym.cli import main
+
+    assert main(["synth", "--out", str(tmp_path / name), "--duration", "5", *extra]) == 0
+    return tmp_path / name
+
+
+def test_synth_refuses_to_overwrite_any_of_its_outputs(tmp_path, capsys):
+    from sma_gym.cli import main
+
+    csv = _synth(tmp_path, "s.csv")
+    for existing in (csv, tmp_path / "s.csv.json", tmp_path / "s.labels.json"):
+        others = {p: p.read_bytes() for p in tmp_path.iterdir() if p != existing}
+        existing.rename(tmp_path / "keep")
+        existing.write_text("mine")
+        assert main(["synth", "--out", str(csv), "--duration", "5", "--seed", "1"]) == 2
+        assert "--overwrite" in capsys.readouterr().err
+        assert existing.read_text() == "mine"
+        assert all(p.read_bytes() == b for p, b in others.items() if p.exists())
+        existing.unlink()
+        (tmp_path / "keep").rename(existing)
+    assert main(["synth", "--out", str(csv), "--duration", "5", "--seed", "1", "--overwrite"]) == 0
+
+
+# --- item 6: every argument checked before any work --------------------------------------------
+
+
+@pytest.mark.parametrize("args, needle", [(["--device", "bogus"], "--device"), (["--seed", "-1"], "--seed")])
+def test_train_bad_device_or_seed_exit_2_and_leave_nothing(tmp_path, args, needle):
+    out = tmp_path / "run"
+    proc = _run([sys.executable, str(ROOT / "train.py"), "--quick", "--no-progress", "--out", str(out), *args])
+    assert proc.returncode == 2 and needle in proc.stderr and "Traceback" not in proc.stderr
+    assert not out.exists()
+
+
+def _unwritable_out(tmp_path: Path) -> Path:
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    return blocker / "out"  # a folder below a file can never be created, even by root
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["diagnose", "{csv}", "--effects", "sensor_lag"],
+        ["evaluate", "--experiments", "8", "--baselines", "PID", "--seeds", "1"],
+        ["fidelity", "--quick"],
+    ],
+)
+def test_commands_check_out_before_the_work(tmp_path, capsys, monkeypatch, command):
+    import agents.evaluation
+    import sma_gym.diagnosis.workflow
+    import sma_gym.fidelity
+    from sma_gym.cli import main
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the work started before --out was checked")
+
+    monkeypatch.setattr(sma_gym.diagnosis.workflow, "diagnose", no_work)
+    monkeypatch.setattr(agents.evaluation, "main", no_work)
+    monkeypatch.setattr(sma_gym.fidelity, "main", no_work)
+    csv = _synth(tmp_path, "s.csv") if "{csv}" in command else None
+    argv = [str(csv) if a == "{csv}" else a for a in command] + ["--out", str(_unwritable_out(tmp_path))]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--out" in err and "a-file" in err
+
+
+def test_evaluate_checks_policies_and_experiments_before_the_work(tmp_path, capsys, monkeypatch):
+    import agents.evaluation
+    from sma_gym.cli import main
+
+    monkeypatch.setattr(agents.evaluation, "main", lambda *a, **k: (_ for _ in ()).throw(AssertionError("work")))
+    assert main(["evaluate", "--experiments", "6.1,warp"]) == 2
+    assert "warp" in capsys.readouterr().err
+    (tmp_path / "m.zip").write_bytes(b"PK")
+    assert main(["evaluate", "--experiments", "8", "--policy", str(tmp_path / "m.zip")]) == 2
+    assert "m.json" in capsys.readouterr().err
+
+
+# --- item 7: actions of the wrong shape or type ---------------------------------------------------
+
+
+@pytest.mark.parametrize("action", [np.zeros(2, np.float32), "0.5", np.zeros((1, 1), np.float32), np.zeros(0), [True], None])
+def test_single_env_rejects_wrong_actions_naming_the_shape(action):
+    import gymnasium as gym
+
+    env = gym.make("sma_gym:SMATracking-v0")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"shape \(1,\)"):
+        env.step(action)
+
+
+@pytest.mark.parametrize("action", [np.zeros(1, np.float32), np.zeros(1, np.float64), 0.25, np.float32(0.1), [0.5]])
+def test_single_env_accepts_what_checkers_send(action):
+    import gymnasium as gym
+
+    env = gym.make("sma_gym:SMATracking-v0")
+    env.reset(seed=0)
+    env.step(action)
+
+
+@pytest.mark.parametrize("action", [np.zeros(3, np.float32), "0.5", np.zeros((1, 4), np.float32), np.zeros(0)])
+def test_multiplexed_env_rejects_wrong_actions_naming_the_shape(action):
+    import gymnasium as gym
+
+    env = gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=4)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"shape \(4,\)"):
+        env.step(action)
+    env.step(np.zeros(4, np.float32))
+
+
+# --- item 4: every reference field validated, at make and at reset ---------------------------------
+
+
+BAD_REFERENCES = [
+    ({"kind": "sine", "phase_rad": float("inf")}, "phase_rad"),
+    ({"kind": "sine", "phase_rad": float("nan")}, "phase_rad"),
+    ({"kind": "sine", "offset_m": 0.009, "amplitude_m": 0.003}, "offset_m \\+ amplitude_m"),
+    ({"kind": "random", "times_s": [0.0, 1.0], "levels_m": [0.0, float("nan")]}, r"levels_m\[1\]"),
+    ({"kind": "random", "times_s": [0.0, 1.0], "levels_m": [0.0, 1e9]}, r"levels_m\[1\]"),
+    ({"kind": "random", "times_s": [0.0, float("inf")], "levels_m": [0.0, 0.001]}, r"times_s\[1\]"),
+    ({"kind": "step", "level1_m": -0.001}, "level1_m"),
+    ({"kind": "step", "t1_s": float("nan")}, "t1_s"),
+    ({"kind": "step", "level1_m": "high"}, "level1_m"),
+    ({"kind": "ramp", "d1_s": float("inf")}, "d1_s"),
+]
+
+
+@pytest.mark.parametrize("reference, field", BAD_REFERENCES)
+def test_bad_references_are_refused_at_make_and_at_reset(reference, field):
+    import gymnasium as gym
+
+    with pytest.raises(ValueError, match=field) as err:
+        gym.make("sma_gym:SMATracking-v0", reference=reference)
+    assert "expected" in str(err.value)
+    env = gym.make("sma_gym:SMATracking-v0")
+    with pytest.raises(ValueError, match=field):
+        env.reset(seed=0, options={"reference": reference})
+
+
+# --- item 9: SB3VecEnv honours indices -------------------------------------------------------------
+
+
+def test_sb3_vec_env_honours_indices_and_refuses_fixed_attributes():
+    import gymnasium as gym
+
+    from sma_gym.envs.sb3 import SB3VecEnv
+
+    venv = SB3VecEnv(gym.make_vec("sma_gym:SMATracking-v0", num_envs=3, vectorization_mode="vector_entry_point"))
+    venv.seed(0)
+    venv.reset()
+    for _ in range(5):
+        venv.step(np.ones((3, 1), np.float32))
+    steps = venv.venv.unwrapped._steps.copy()
+    result = venv.env_method("reset", indices=[0])
+    assert len(result) == 1 and result[0][0].shape == venv.observation_space.shape
+    assert list(venv.venv.unwrapped._steps) == [0, steps[1], steps[2]]
+    with pytest.raises(ValueError, match="control_period_s"):
+        venv.set_attr("control_period_s", 0.01)
+    assert venv.get_attr("control_period_s")[0] == venv.venv.unwrapped.sim.control_period_s
+    with pytest.raises(ValueError, match="share one simulator"):
+        venv.set_attr("max_episode_steps", 10, indices=[1])
+    venv.set_attr("max_episode_steps", 10)
+    with pytest.raises(ValueError, match="indices"):
+        venv.env_method("reset", indices=[7])
+
+
+# --- item 8: synth validates its options up front ----------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["--sample-period", "0"], "--sample-period"),
+        (["--sample-period", "-1"], "--sample-period"),
+        (["--sample-period", "1e-6"], "--sample-period"),
+        (["--sample-period", "100"], "--sample-period"),
+        (["--sample-period", "0.05", "--duration", "3"], "samples"),
+        (["--position-noise", "1"], "--position-noise"),
+        (["--resistance-noise", "-1"], "--resistance-noise"),
+        (["--duration", "inf"], "--duration"),
+        (["--duration", "1e6"], "--duration"),
+        (["--seed", "-1"], "--seed"),
+    ],
+)
+def test_synth_rejects_out_of_range_options_and_writes_nothing(tmp_path, capsys, args, needle):
+    from sma_gym.cli import main
+
+    assert main(["synth", "--out", str(tmp_path / "s.csv"), *args]) == 2
+    assert needle in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+# --- item 10: loader and file gaps ------------------------------------------------------------------
+
+
+def _csv_text(rows: int = 40) -> str:
+    lines = ["t,duty,position"] + [f"{k * 1e-3:.3f},{0.3 if k > 10 else 0.0},{1e-5 * k:.6g}" for k in range(rows)]
+    return "\n".join(lines) + "\n"
+
+
+def test_measured_files_accept_a_bom_and_trailing_blank_lines(tmp_path):
+    from sma_gym.data import load_trace
+
+    f = tmp_path / "excel.csv"
+    f.write_bytes(b"\xef\xbb\xbf" + _csv_text().encode() + b"\n\n \n")
+    assert len(load_trace(f).t) == 40
+
+
+def test_files_too_short_for_a_diagnosis_are_refused_at_load(tmp_path, capsys):
+    from sma_gym.cli import main
+
+    f = tmp_path / "short.csv"
+    f.write_text(_csv_text(5))
+    assert main(["diagnose", str(f), "--out", str(tmp_path / "d")]) == 2
+    err = capsys.readouterr().err
+    assert "short.csv" in err and "at least 20" in err
+    assert not (tmp_path / "d").exists()
+
+
+def test_binary_directories_lists_and_endless_files_name_the_file(tmp_path):
+    from sma_gym.data import MeasuredDataError, load_trace
+    from sma_gym.model import load_model
+
+    f = tmp_path / "ok.csv"
+    f.write_text(_csv_text())
+    side = tmp_path / "ok.csv.json"
+    side.write_bytes(b"\x00\xff\xfe binary")
+    with pytest.raises(MeasuredDataError, match="not UTF-8") as err:
+        load_trace(f)
+    assert str(side) in str(err.value)
+    side.unlink()
+    side.mkdir()
+    with pytest.raises(MeasuredDataError, match="folder"):
+        load_trace(f)
+    model = tmp_path / "model.json"
+    model.write_bytes(b"\x89PNG\r\n\x1a\n\xff")
+    with pytest.raises(ValueError, match="not UTF-8") as err:
+        load_model(str(model))
+    assert str(model) in str(err.value)
+    with pytest.raises(ValueError, match="folder"):
+        load_model(str(tmp_path))
+    model.write_text('{"format": "sma-gym-model", "version": 1, "effects": ["sensor_lag"]}')
+    with pytest.raises(ValueError, match="'effects' is a JSON list") as err:
+        load_model(str(model))
+    assert str(model) in str(err.value)
+    if os.path.exists("/dev/zero"):
+        with pytest.raises(ValueError, match="larger than"):
+            load_model("/dev/zero")
+
+
+def test_diagnose_shows_progress_and_decimates_oversampled_files(tmp_path, capsys):
+    from sma_gym.data import load_trace
+    from sma_gym.diagnosis.workflow import _decimated
+
+    csv = _synth(tmp_path, "s.csv")
+    trace = load_trace(csv)
+    dense = type(trace)(path="dense.csv", t=np.linspace(0, 5, 50_001), duty=np.zeros(50_001), position=np.zeros(50_001))
+    said: list[str] = []
+    small = _decimated(dense, 1e-3, said.append)
+    assert len(small.t) <= 5_001 and "keeping every 10th" in said[0]
+    long = type(trace)(path="long.csv", t=np.arange(0, 4000.0, 0.5), duty=np.zeros(8000), position=np.zeros(8000))
+    with pytest.raises(ValueError, match="at most 1800 s"):
+        _decimated(long, 1e-3, said.append)
+    from sma_gym.cli import main
+
+    assert main(["diagnose", str(csv), "--out", str(tmp_path / "d"), "--effects", "sensor_lag"]) == 0
+    err = capsys.readouterr().err
+    assert "candidate 1/2: nominal refit" in err and "candidate 2/2: sensor_lag" in err

@@ -23,7 +23,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from sma_gym._validation import require_int_range, require_range
+from sma_gym._validation import require_action, require_int_range, require_range
 from sma_gym.core import layout as L
 from sma_gym.electrical.multiplexer import Multiplexer
 from sma_gym.envs import references as refs
@@ -112,11 +112,7 @@ class SMAMultiplexedEnv(gym.Env):
         return self._obs.reshape(-1).copy(), {**self._info(), "references": described}
 
     def step(self, action):
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != (self.n,):
-            raise ValueError(f"action has shape {np.shape(action)}: expected ({self.n},)")
-        if not np.isfinite(a).all():
-            raise ValueError(f"action = {action!r}: expected finite values in [-1, 1]")
+        a = require_action(action, self.n)
         duty = self.duty_for(a)
         self._duty[0] = duty
         self.sim.step_unchecked(self._duty)

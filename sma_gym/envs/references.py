@@ -206,7 +206,28 @@ _FIELDS = {
 }
 
 
+MAX_REFERENCE_FREQUENCY_HZ = 100.0
+"""Fastest sine accepted: far above what a wire (thermal time constants of ~1 s) can follow."""
+
+
+def _field(kind: str, key: str, value: Any) -> float:
+    """``value`` of reference field ``key`` as a float, or a ValueError naming the field."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a number") from None
+
+
+def _check_level(kind: str, key: str, value: float, stroke_m: float) -> None:
+    if not (math.isfinite(value) and 0.0 <= value <= stroke_m):
+        raise ValueError(
+            f"reference {kind!r} {key} = {value!r}: expected a position in [0, {stroke_m:g}] m "
+            "(the actuator's stroke: the wire can neither extend past rest nor contract past its end of travel)"
+        )
+
+
 def _from_mapping(spec: Mapping[str, Any], rng: np.random.Generator, stroke_m: float) -> Reference:
+    """A reference from a dict; every field is checked (finite, within the stroke, ...)."""
     kind = spec.get("kind")
     if kind not in KIND_CODES:
         raise ValueError(f"reference['kind'] = {kind!r}: expected one of {', '.join(map(repr, KIND_CODES))}")
@@ -214,12 +235,23 @@ def _from_mapping(spec: Mapping[str, Any], rng: np.random.Generator, stroke_m: f
     if not given:
         return draw(kind, rng, stroke_m)
     if kind == "random":
-        wp_t = np.asarray(given.get("times_s", []), dtype=float)
-        wp_x = np.asarray(given.get("levels_m", []), dtype=float)
+        unknown = set(given) - {"times_s", "levels_m"}
+        if unknown:
+            raise ValueError(f"reference 'random': unknown field(s) {sorted(unknown)}; expected ['times_s', 'levels_m']")
+        try:
+            wp_t = np.asarray(given.get("times_s", []), dtype=float)
+            wp_x = np.asarray(given.get("levels_m", []), dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError("reference 'random': 'times_s' and 'levels_m' must be lists of numbers") from None
         if wp_t.ndim != 1 or wp_t.shape != wp_x.shape or not (2 <= len(wp_t) <= N_WAYPOINTS) or np.any(np.diff(wp_t) <= 0):
             raise ValueError(
                 f"reference 'random' needs 'times_s' (strictly increasing) and 'levels_m' of equal length 2..{N_WAYPOINTS}"
             )
+        for k, t in enumerate(wp_t):
+            if not (math.isfinite(t) and t >= 0.0):
+                raise ValueError(f"reference 'random' times_s[{k}] = {float(t)!r}: expected a finite time >= 0 s")
+        for k, x in enumerate(wp_x):
+            _check_level("random", f"levels_m[{k}]", float(x), stroke_m)
         times = np.concatenate([wp_t, wp_t[-1] + np.arange(1, N_WAYPOINTS - len(wp_t) + 1)])
         levels = np.concatenate([wp_x, np.full(N_WAYPOINTS - len(wp_x), wp_x[-1])])
         return Reference(RANDOM, np.zeros(N_PARAMS), times, levels, name="random")
@@ -232,12 +264,28 @@ def _from_mapping(spec: Mapping[str, Any], rng: np.random.Generator, stroke_m: f
         "ramp": {"t1_s": 0.5, "level1_m": 7e-3, "d1_s": 1.0, "t2_s": math.inf, "level2_m": 1e-3, "d2_s": 1.0},
         "sine": {"offset_m": REPORT_SINE_OFFSET_M, "amplitude_m": REPORT_SINE_AMPLITUDE_M, "frequency_hz": REPORT_SINE_FREQUENCY_HZ, "phase_rad": 0.0},
     }[kind]
-    values = {**defaults, **{k: float(v) for k, v in given.items()}}
+    values = {**defaults, **{k: _field(kind, k, v) for k, v in given.items()}}
     if kind == "step" and values["level2_m"] is None:
         values["level2_m"] = values["level1_m"]
     for key, value in values.items():
-        if key.endswith("_m") and not (-0.1 <= value <= 0.1):
-            raise ValueError(f"reference {kind!r} {key} = {value!r}: expected metres within +-0.1 m")
-        if key in ("d1_s", "d2_s", "frequency_hz") and not (value > 0 and math.isfinite(value)):
-            raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a positive finite value")
+        if math.isnan(value):
+            raise ValueError(f"reference {kind!r} {key} = nan: expected a number")
+        if key in ("level1_m", "level2_m"):
+            _check_level(kind, key, value, stroke_m)
+        elif key == "t1_s" and not (math.isfinite(value) and value >= 0.0):
+            raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a finite time >= 0 s")
+        elif key == "t2_s" and not value >= values["t1_s"]:
+            raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a time >= t1_s = {values['t1_s']!r} s, or inf (never)")
+        elif key in ("d1_s", "d2_s") and not (value > 0 and math.isfinite(value)):
+            raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a positive finite duration (s)")
+        elif key == "frequency_hz" and not 0.0 < value <= MAX_REFERENCE_FREQUENCY_HZ:
+            raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a value in (0, {MAX_REFERENCE_FREQUENCY_HZ:g}] Hz")
+        elif key == "phase_rad" and not math.isfinite(value):
+            raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a finite phase (rad)")
+        elif key == "amplitude_m" and not (math.isfinite(value) and value >= 0.0):
+            raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a finite amplitude >= 0 m")
+    if kind == "sine":
+        # The sine spans offset +- amplitude: both ends must lie within the stroke.
+        _check_level(kind, "offset_m - amplitude_m", values["offset_m"] - values["amplitude_m"], stroke_m)
+        _check_level(kind, "offset_m + amplitude_m", values["offset_m"] + values["amplitude_m"], stroke_m)
     return Reference(KIND_CODES[kind], np.array([values[n] for n in names]), name=kind)

@@ -8,6 +8,11 @@
 SB3 expects same-step autoreset, which is what :class:`~sma_gym.envs.vector.SMAVectorEnv`
 does; this adapter only converts the info dict of arrays into SB3's list of dicts and adds
 ``terminal_observation`` and ``TimeLimit.truncated``.
+
+The sub-envs share one simulator, so ``indices`` are honoured where that is meaningful
+(``env_method("reset", indices=...)`` resets only those sub-envs) and refused with a clear
+error where it is not (a method or attribute of the shared env for a subset); attributes
+the simulator was built from (``control_period_s``, ...) cannot be set at all.
 """
 
 from __future__ import annotations
@@ -81,11 +86,34 @@ class SB3VecEnv(VecEnv):
         return [value] * len(self._indices(indices))
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
-        setattr(self.venv.unwrapped, attr_name, value)
+        """Set an attribute of the shared env: only for all sub-envs, never one the simulator was built from."""
+        env = self.venv.unwrapped
+        if attr_name in getattr(env, "FIXED_AT_MAKE", ()):
+            raise ValueError(
+                f"set_attr({attr_name!r}): fixed when the env is made (the simulator was built with it); "
+                f"make a new env with {attr_name}=... instead"
+            )
+        self._require_all(self._indices(indices), f"set_attr({attr_name!r})")
+        setattr(env, attr_name, value)
 
     def env_method(self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any) -> list[Any]:
-        result = getattr(self.venv.unwrapped, method_name)(*method_args, **method_kwargs)
-        return [result] * len(self._indices(indices))
+        """Call a method of the shared env; ``reset`` may address a subset of sub-envs."""
+        chosen = self._indices(indices)
+        env = self.venv.unwrapped
+        if method_name == "reset" and indices is not None:
+            if method_args or set(method_kwargs) - {"options"}:
+                raise ValueError("env_method('reset', indices=...): only an 'options' keyword is accepted for a subset")
+            return env.reset_envs(chosen, options=method_kwargs.get("options"))
+        self._require_all(chosen, f"env_method({method_name!r})")
+        result = getattr(env, method_name)(*method_args, **method_kwargs)
+        return [result] * len(chosen)
+
+    def _require_all(self, chosen: Sequence[int], what: str) -> None:
+        if sorted(set(chosen)) != list(range(self.num_envs)):
+            raise ValueError(
+                f"{what} with indices {list(chosen)}: the {self.num_envs} sub-envs share one simulator, so this "
+                "applies to all of them or none; pass indices=None"
+            )
 
     def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
         return [False] * len(self._indices(indices))
@@ -93,9 +121,11 @@ class SB3VecEnv(VecEnv):
     def _indices(self, indices: Any) -> Sequence[int]:
         if indices is None:
             return range(self.num_envs)
-        if isinstance(indices, int):
-            return [indices]
-        return list(indices)
+        chosen = [indices] if isinstance(indices, (int, np.integer)) else list(indices)
+        for i in chosen:
+            if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 0 <= i < self.num_envs:
+                raise ValueError(f"indices contains {i!r}: expected integers in [0, {self.num_envs - 1}]")
+        return [int(i) for i in chosen]
 
     def get_images(self) -> Sequence[np.ndarray | None]:
         return [None] * self.num_envs

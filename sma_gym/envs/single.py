@@ -37,7 +37,6 @@ features back into SI units: ``position_scale_m`` (the stroke), ``resistance_sca
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -45,7 +44,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from sma_gym._validation import require_choice, require_range
+from sma_gym._validation import require_action, require_choice, require_range
 from sma_gym.core import layout as L
 from sma_gym.envs import references as refs
 from sma_gym.envs import task
@@ -121,7 +120,9 @@ class Settings:
             raise ValueError("reference = (): expected at least one reference name")
         for name in names:
             if isinstance(name, dict):
-                refs.resolve(name, np.random.default_rng(0), 9.5e-3, "step")  # validates the fields
+                # Validates every field, levels against the nominal model's stroke (reset
+                # checks again against the actuator's own).
+                refs.resolve(name, np.random.default_rng(0), task.stroke_of_actuator(m.actuator), "step")
             else:
                 require_choice("reference", name, refs.NAMED)
         conditions = None
@@ -232,12 +233,7 @@ class SMAEnv(gym.Env):
         return self._obs[0].copy(), {**self._info(), **info}
 
     def step(self, action):
-        try:
-            a = float(action[0])
-        except (TypeError, IndexError):
-            a = float(action)
-        if not math.isfinite(a):
-            raise ValueError(f"action = {action!r}: expected finite values in [-1, 1]")
+        a = float(require_action(action, 1)[0])
         duty = self.duty_for(a)
         self._duty[0, 0] = duty
         self.sim.step_unchecked(self._duty)

@@ -38,12 +38,16 @@ at duty 1, so the energy term is at most ``energy_weight`` per step.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sma_gym._jit import njit
 from sma_gym.core import layout as L
 from sma_gym.envs.references import evaluate
+
+if TYPE_CHECKING:
+    from sma_gym.params import ActuatorParams
 
 TRACKING = 0
 SELF_SENSING = 1
@@ -103,6 +107,12 @@ def bounds(mode: int) -> tuple[np.ndarray, np.ndarray]:
 def stroke_of(params_row: np.ndarray) -> float:
     eot = params_row[L.P_EOT]
     return float(eot) if math.isfinite(eot) else float(params_row[L.P_EPS0] * params_row[L.P_LENGTH])
+
+
+def stroke_of_actuator(params: ActuatorParams) -> float:
+    """:func:`stroke_of` for parameters not yet packed (to check make kwargs)."""
+    eot = params.driver.end_of_travel_m
+    return float(eot) if math.isfinite(eot) else float(params.wire.max_stroke_m)
 
 
 class TaskState:

@@ -18,6 +18,7 @@ observation and info of the ended one are in ``info["final_obs"]`` / ``info["fin
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -50,6 +51,13 @@ class SMAVectorEnv(VectorEnv):
     """``num_envs`` single-actuator envs of one variant, simulated as one batch."""
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.SAME_STEP}
+
+    FIXED_AT_MAKE = (
+        "control_period_s", "settings", "sim", "task", "variant", "num_envs", "feature_names", "duty_range",
+        "observation_space", "action_space", "single_observation_space", "single_action_space",
+    )
+    """Attributes the simulator or the spaces were built from: changing one afterwards would
+    leave the simulator stepping with the old value, so adapters refuse to set them."""
 
     def __init__(self, num_envs: int, variant: Variant = TRACKING, max_episode_steps: int | None = None, **kwargs: Any):
         self.num_envs = require_int_range("num_envs", num_envs, 1, 1 << 20)
@@ -123,6 +131,24 @@ class SMAVectorEnv(VectorEnv):
         info["reference"] = np.array([x["reference"] for x in infos], dtype=object)
         info["_reference"] = self._all_true.copy()
         return self._obs.copy(), info
+
+    def reset_envs(self, indices: Sequence[int], options: dict | None = None) -> list[tuple[np.ndarray, dict[str, Any]]]:
+        """Reset only the sub-envs ``indices`` (each with its own generator); the others go on.
+
+        Returns ``(observation, info)`` per index, in the order given.
+        """
+        columns = np.asarray(sorted(set(int(i) for i in indices)), dtype=np.int64)
+        described = {}
+        for i in columns:
+            if self._rngs[i] is None:
+                self._rngs[i], _ = seeding.np_random(None)
+            info = reset_column(self.sim, self.task, int(i), self._rngs[i], self.settings, options)
+            self._conditions[i] = info.get("condition")
+            described[int(i)] = info["reference"]
+            self._steps[i] = 0
+        if columns.size:
+            self._outputs(columns)
+        return [(self._obs[i].copy(), {"reference": described[int(i)]}) for i in indices]
 
     def step(self, actions):
         a = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
