@@ -50,17 +50,23 @@ def require_range(
     *,
     lower_open: bool = False,
     upper_open: bool = False,
+    why: str = "",
 ) -> float:
-    """Return ``value`` if it lies in the interval, else raise naming the interval."""
-    number = require_finite(name, value, unit)
+    """Return ``value`` if it lies in the interval, else raise naming the interval.
+
+    ``why``: the physical reason for the bounds, appended to the message.
+    """
+    left = "(" if lower_open else "["
+    right = ")" if upper_open else "]"
+    expected = f"expected a value in {left}{lower:g}, {upper:g}{right}{_unit(unit)}{_why(why)}"
+    try:
+        number = require_finite(name, value, unit)
+    except ValueError:
+        raise ValueError(f"{name} = {_fmt(value)}: {expected}") from None
     below = number <= lower if lower_open else number < lower
     above = number >= upper if upper_open else number > upper
     if below or above:
-        left = "(" if lower_open else "["
-        right = ")" if upper_open else "]"
-        raise ValueError(
-            f"{name} = {_fmt(value)}: expected a value in {left}{lower:g}, {upper:g}{right}{_unit(unit)}"
-        )
+        raise ValueError(f"{name} = {_fmt(value)}: {expected}")
     return number
 
 
@@ -110,3 +116,7 @@ def require_action(action: Any, n: int) -> np.ndarray:
 
 def _unit(unit: str) -> str:
     return f" ({unit})" if unit else ""
+
+
+def _why(why: str) -> str:
+    return f": {why}" if why else ""

@@ -465,3 +465,164 @@ def test_diagnose_shows_progress_and_decimates_oversampled_files(tmp_path, capsy
     assert main(["diagnose", str(csv), "--out", str(tmp_path / "d"), "--effects", "sensor_lag"]) == 0
     err = capsys.readouterr().err
     assert "candidate 1/2: nominal refit" in err and "candidate 2/2: sensor_lag" in err
+
+
+# --- item 1 (validation): physically meaningless models are refused; every step is bounded ---------------
+
+
+def test_every_preset_is_valid_and_meaningless_wires_are_refused_with_field_value_and_reason():
+    from sma_gym.params import preset, preset_names
+
+    for name in preset_names():
+        preset(name)
+    base = preset("standard")
+    cases = {
+        "wire.length_m": 1e-5,  # the issue's hang
+        "wire.diameter_m": 0.3,  # mm for m
+        "wire.specific_heat_j_kg_k": 0.8374,  # J/(g K), Table 5.1's erratum
+        "wire.youngs_modulus_austenite_pa": 83.0,  # GPa for Pa
+        "wire.density_kg_m3": 6.5,  # g/cm^3
+        "wire.resistivity_martensite_ohm_m": 97.1,  # uohm cm
+        "convection.h0_w_m2_k": 1e9,
+        "driver.supply_voltage_v": 1000.0,
+        "mechanism.moving_mass_kg": 1e-9,
+        "mechanism.spring_stiffness_n_m": 1e9,
+        "sensors.position_noise_std_m": 1.0,
+    }
+    for key, value in cases.items():
+        with pytest.raises(ValueError) as err:
+            base.with_changes(**{key: value})
+        text = str(err.value)
+        field = key.split(".")[1]
+        assert field in text and repr(value) in text and "expected a value in" in text, text
+        assert text.count(":") >= 2, f"no physical reason in {text!r}"
+    with pytest.raises(ValueError, match="rest stress"):
+        base.with_changes(**{"wire.diameter_m": 25e-6, "mechanism.spring_preload_n": 5.0})
+
+
+_STEP_WORKER = r"""
+import json, sys, time
+import gymnasium as gym
+import numpy as np
+import sma_gym
+
+env = gym.make("sma_gym:SMATracking-v0")
+env.reset(seed=0)
+env.step(np.zeros(1, np.float32))
+print("ready", flush=True)
+for line in sys.stdin:
+    try:
+        env = gym.make("sma_gym:SMATracking-v0", model=line.strip())
+    except ValueError as err:
+        print(json.dumps({"refused": str(err)}), flush=True)
+        continue
+    env.reset(seed=0)
+    worst = 0.0
+    for a in (1.0, 1.0, 1.0, 1.0, -1.0, 0.0):
+        start = time.perf_counter()
+        env.step(np.array([a], np.float32))
+        worst = max(worst, time.perf_counter() - start)
+    print(json.dumps({"worst_step_s": worst}), flush=True)
+"""
+
+
+class _StepWorker:
+    """One compiled process that makes an env per model file and steps it; a hang is a failure."""
+
+    def __init__(self) -> None:
+        env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+        self.proc = subprocess.Popen(
+            [sys.executable, "-c", _STEP_WORKER], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env,
+        )
+        assert self.readline(240.0) == "ready"
+
+    def readline(self, timeout: float) -> str:
+        import selectors
+
+        with selectors.DefaultSelector() as sel:
+            sel.register(self.proc.stdout, selectors.EVENT_READ)
+            if not sel.select(timeout):
+                self.proc.kill()
+                pytest.fail(f"no answer within {timeout} s: a step hangs")
+        line = self.proc.stdout.readline()
+        if not line:
+            pytest.fail(f"the worker died (exit code {self.proc.wait()})")
+        return line.strip()
+
+    def ask(self, path: Path, timeout: float = 20.0) -> dict:
+        import json
+
+        self.proc.stdin.write(f"{path}\n")
+        self.proc.stdin.flush()
+        return json.loads(self.readline(timeout))
+
+    def close(self) -> None:
+        self.proc.stdin.close()
+        self.proc.wait(timeout=30)
+
+
+@pytest.fixture(scope="module")
+def step_worker():
+    worker = _StepWorker()
+    yield worker
+    worker.close()
+
+
+# log10 ranges drawn: each reaches well beyond the validated bounds on both sides.
+_DRAWN = {
+    "wire.length_m": (-6.0, 2.0),
+    "wire.diameter_m": (-6.0, -1.0),
+    "wire.density_kg_m3": (1.0, 5.0),
+    "wire.specific_heat_j_kg_k": (-1.0, 5.0),
+    "wire.youngs_modulus_austenite_pa": (6.0, 13.0),
+    "convection.h0_w_m2_k": (-2.0, 6.0),
+    "driver.supply_voltage_v": (-2.0, 3.0),
+    "mechanism.moving_mass_kg": (-7.0, 3.0),
+    "mechanism.spring_stiffness_n_m": (-1.0, 7.0),
+}
+
+
+def _model_strategy():
+    """One or two parameters of the standard model, each drawn log-uniformly across and beyond its bounds."""
+    from hypothesis import strategies as st
+
+    def values(keys: frozenset) -> st.SearchStrategy:
+        return st.fixed_dictionaries({k: st.floats(*_DRAWN[k]).map(lambda e: float(10.0**e)) for k in sorted(keys)})
+
+    return st.frozensets(st.sampled_from(sorted(_DRAWN)), min_size=1, max_size=2).flatmap(values)
+
+
+def test_models_across_the_bounds_are_refused_or_step_in_bounded_time(tmp_path_factory, step_worker):
+    import json
+
+    from hypothesis import HealthCheck, example, given, settings
+
+    from sma_gym.model import ModelConfig
+
+    folder = tmp_path_factory.mktemp("models")
+    base = ModelConfig().to_dict()
+    outcomes: list[str] = []
+
+    @settings(max_examples=30, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @given(_model_strategy())
+    @example({"wire.length_m": 1e-5})  # the issue's hang
+    @example({"wire.length_m": 1e-4})  # the issue's 25 800 degC
+    @example({"wire.length_m": 0.01, "wire.diameter_m": 2e-3, "driver.supply_voltage_v": 60.0})  # corners inside
+    @example({"wire.length_m": 0.01, "wire.diameter_m": 25e-6, "driver.supply_voltage_v": 60.0})
+    def check(changes: dict) -> None:
+        data = json.loads(json.dumps(base))
+        for key, value in changes.items():
+            group, name = key.split(".")
+            data["actuator"][group][name] = value
+        path = folder / f"model{len(outcomes)}.json"
+        path.write_text(json.dumps(data))
+        answer = step_worker.ask(path)
+        if "refused" in answer:
+            outcomes.append("refused")
+            return
+        outcomes.append("stepped")
+        assert answer["worst_step_s"] < 5.0, (changes, answer)
+
+    check()
+    print(f"models: {outcomes.count('refused')} refused, {outcomes.count('stepped')} stepped")
+    assert "refused" in outcomes and "stepped" in outcomes
