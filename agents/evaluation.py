@@ -170,33 +170,89 @@ def rollout(entry: PolicyEntry, *, model: Any = "standard", reference: Any, seco
     on stacked observations get them stacked by stable-baselines3's own
     ``StackedObservations``, exactly as ``VecFrameStack`` did in training.
     """
+    return rollouts([entry], model=model, reference=reference, seconds=seconds, seeds=seeds, noise_m=noise_m, env_kwargs=env_kwargs)[0]
+
+
+def rollouts(entries: Sequence[PolicyEntry], *, model: Any = "standard", reference: Any, seconds: float, seeds: Sequence[int] = DEFAULT_SEEDS, noise_m: float = EVAL_NOISE_M, env_kwargs: dict | None = None) -> list[Trace]:
+    """:func:`rollout` for several entries side by side in one vector env (one trace each).
+
+    The entries must share env id, env kwargs and frame stack (:func:`batchable`). Entry k
+    runs on columns k*S ... k*S + S - 1 (S = len(seeds)), seeded ``seeds[0] + i`` exactly as
+    when it runs alone, and its policy sees only its columns, so each trace equals the one
+    :func:`rollout` gives; only the Python overhead per control step is shared.
+    """
+    first = entries[0]
+    if any((e.env_id, e.env_kwargs, e.frame_stack) != (first.env_id, first.env_kwargs, first.frame_stack) for e in entries):
+        raise ValueError("rollouts: entries must share env id, env kwargs and frame stack")
+    width = len(seeds)
     kwargs = {"model": model, "reference": reference, "position_noise_std_m": noise_m, **(env_kwargs or {})}
-    venv, steps, dt = make_venv(entry, len(seeds), seconds, kwargs)
-    policy = entry.make(venv)
-    if hasattr(policy, "reset"):
-        policy.reset()
-    obs, _ = venv.reset(seed=int(seeds[0]))
+    venv, steps, dt = make_venv(first, width * len(entries), seconds, kwargs)
+    if len(entries) == 1:
+        policies = [first.make(venv)]
+    else:
+        policies = [e.make(_ColumnView(venv, slice(k * width, (k + 1) * width))) for k, e in enumerate(entries)]
+    for policy in policies:
+        if hasattr(policy, "reset"):
+            policy.reset()
+    obs, _ = venv.reset(seed=[int(seeds[0]) + i for _ in entries for i in range(width)])
+    n = width * len(entries)
     stacker = None
-    if entry.frame_stack > 1:
+    if first.frame_stack > 1:
         from stable_baselines3.common.vec_env.stacked_observations import StackedObservations
 
-        stacker = StackedObservations(len(seeds), entry.frame_stack, venv.single_observation_space)
+        stacker = StackedObservations(n, first.frame_stack, venv.single_observation_space)
         obs = stacker.reset(obs)
     record: dict[str, list] = {k: [] for k in _RECORD}
-    starts = np.ones(len(seeds), dtype=bool)
+    starts = np.ones(n, dtype=bool)
     for _ in range(steps):
-        action, _ = policy.predict(obs, episode_start=starts, deterministic=True)
-        starts = np.zeros(len(seeds), dtype=bool)
+        actions = [p.predict(obs[k * width : (k + 1) * width], episode_start=starts[k * width : (k + 1) * width], deterministic=True)[0] for k, p in enumerate(policies)]
+        action = actions[0] if len(actions) == 1 else np.concatenate(actions)
+        starts = np.zeros(n, dtype=bool)
         obs, _, terminated, truncated, info = venv.step(action)
         if stacker is not None:
-            obs, _ = stacker.update(obs, terminated | truncated, [{} for _ in seeds])
+            obs, _ = stacker.update(obs, terminated | truncated, [{} for _ in range(n)])
         for key in _RECORD:
             record[key].append(np.asarray(info[key], dtype=float))
         if np.any(terminated | truncated):
-            raise RuntimeError(f"{entry.name}: an evaluation episode ended early (overheated?) at t = {info['time_s']} s")
+            names = [entries[i // width].name for i in np.flatnonzero(terminated | truncated)]
+            raise RuntimeError(f"{', '.join(dict.fromkeys(names))}: an evaluation episode ended early (overheated?) at t = {info['time_s']} s")
     venv.close()
     data = {k: np.asarray(v, dtype=float) for k, v in record.items()}
-    return Trace(t=(np.arange(steps) + 1) * dt, data=data)
+    t = (np.arange(steps) + 1) * dt
+    return [Trace(t=t, data={k: v[:, k_ * width : (k_ + 1) * width] for k, v in data.items()}) for k_ in range(len(entries))]
+
+
+def batchable(entries: Sequence[PolicyEntry]) -> list[list[PolicyEntry]]:
+    """``entries`` in groups that :func:`rollouts` can run together, order kept.
+
+    Only the report's controllers on the tracking env: their policies read nothing of the
+    env but its constants, so they can share one; any other entry runs alone.
+    """
+    groups: list[list[PolicyEntry]] = []
+    for e in entries:
+        shareable = e.kind == "baseline" and e.env_id == "SMATracking-v0" and e.frame_stack == 1
+        last = groups[-1] if groups else None
+        if shareable and last and last[0].kind == "baseline" and (last[0].env_id, last[0].env_kwargs, last[0].frame_stack) == (e.env_id, e.env_kwargs, 1):
+            last.append(e)
+        else:
+            groups.append([e])
+    return groups
+
+
+class _ColumnView:
+    """What a policy reads from a vector env (its constants), restricted to some columns."""
+
+    def __init__(self, venv: Any, columns: slice):
+        self._venv = getattr(venv, "unwrapped", venv)
+        self._columns = columns
+
+    def __getattr__(self, name: str) -> Any:
+        if name in ("get_attr", "unwrapped") or name.startswith("_"):
+            raise AttributeError(name)
+        value = getattr(self._venv, name)
+        if isinstance(value, np.ndarray) and value.ndim >= 1 and value.shape[0] == self._venv.num_envs:
+            return value[self._columns]
+        return value
 
 
 # --------------------------------------------------------------------------------------
@@ -347,23 +403,28 @@ class Results:
 # --------------------------------------------------------------------------------------
 # Experiments
 # --------------------------------------------------------------------------------------
-def run_table_6_1(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = DEFAULT_SEEDS, condition: str = "standard", model: Any = "standard") -> None:
-    for entry in entries:
-        _step_and_sine("6.1", entry, model, condition, results, seeds)
+def run_table_6_1(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = DEFAULT_SEEDS, condition: str = "standard", model: Any = "standard", sine_seconds: float = SINE_SECONDS) -> None:
+    for group in batchable(entries):
+        _step_and_sine("6.1", group, model, condition, results, seeds, sine_seconds)
 
 
-def run_chapter_7(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = DEFAULT_SEEDS, conditions: Sequence[tuple[str, str]] = CHAPTER_7_CONDITIONS) -> None:
+def run_chapter_7(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = DEFAULT_SEEDS, conditions: Sequence[tuple[str, str]] = CHAPTER_7_CONDITIONS, sine_seconds: float = SINE_SECONDS) -> None:
     for label, preset_name in conditions:
-        for entry in entries:
-            _step_and_sine("7", entry, preset_name, label, results, seeds)
+        for group in batchable(entries):
+            _step_and_sine("7", group, preset_name, label, results, seeds, sine_seconds)
 
 
-def _step_and_sine(experiment: str, entry: PolicyEntry, model: Any, condition: str, results: Results, seeds: Sequence[int]) -> None:
-    """The report's 8 mm step and 0.1 Hz sine for one policy on one model: metrics and traces."""
-    for reference, seconds, metrics in (("step", STEP_SECONDS, step_metrics), ("sine", SINE_SECONDS, sine_metrics)):
-        trace = rollout(entry, model=model, reference=f"report-{reference}", seconds=seconds, seeds=seeds)
-        results.records += _records(experiment, entry.name, condition, reference, metrics(trace))
-        results.traces[(experiment, entry.name, condition, reference)] = trace
+def _step_and_sine(experiment: str, entries: Sequence[PolicyEntry], model: Any, condition: str, results: Results, seeds: Sequence[int], sine_seconds: float = SINE_SECONDS) -> None:
+    """The report's 8 mm step and 0.1 Hz sine for policies on one model: metrics and traces.
+
+    ``sine_seconds`` shorter than the default (quick runs) ends the sine's scoring window there.
+    """
+    window = (SINE_WINDOW_S[0], min(SINE_WINDOW_S[1], sine_seconds))
+    for reference, seconds, metrics in (("step", STEP_SECONDS, step_metrics), ("sine", sine_seconds, lambda tr: sine_metrics(tr, window))):
+        traces = rollouts(entries, model=model, reference=f"report-{reference}", seconds=seconds, seeds=seeds)
+        for entry, trace in zip(entries, traces):
+            results.records += _records(experiment, entry.name, condition, reference, metrics(trace))
+            results.traces[(experiment, entry.name, condition, reference)] = trace
 
 
 def efficiency_reference(ramp_s: float) -> dict:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -31,36 +31,41 @@ def plot_voltage_steps(data: dict[str, np.ndarray], out: Path) -> Path:
 
 
 def plot_resistance_loop(loop: dict[str, np.ndarray], first: dict[str, np.ndarray], out: Path) -> Path:
-    """Fig. 4.5 / 4.9 style: measured resistance against measured position."""
+    """Fig. 4.5 / 4.9 style: measured resistance against measured position.
+
+    Column 0 of ``loop`` is the 1 -> 7 mm sine at 10 V, column 3 fig. 4.4's 0 -> 8 mm sine.
+    """
     fig, axes = new_figure(1, 2, size=(11, 4.5))
     sel = loop["t"] >= 20.0
-    v = np.gradient(loop["x"])
+    v = np.gradient(loop["x"][:, 0])
     heat = sel & (v > 0)
     cool = sel & (v < 0)
     ax = axes[0, 0]
-    ax.plot(loop["r_meas"][heat], loop["x_meas"][heat] * 1e3, ".", ms=1.5, label="heating")
-    ax.plot(loop["r_meas"][cool], loop["x_meas"][cool] * 1e3, ".", ms=1.5, label="cooling")
+    ax.plot(loop["r_meas"][heat, 0], loop["x_meas"][heat, 0] * 1e3, ".", ms=1.5, label="heating")
+    ax.plot(loop["r_meas"][cool, 0], loop["x_meas"][cool, 0] * 1e3, ".", ms=1.5, label="cooling")
     ax.plot(first["resistance_measured_ohm"][:, 0], first["position_m"][:, 0] * 1e3, "-", lw=1, color="0.4", label="first rise from cold")
-    ax.set(xlabel="resistance [ohm]", ylabel="position [mm]", title="Position - resistance (cf. figs. 4.5, 4.9)")
+    ax.set(xlabel="resistance [ohm]", ylabel="position [mm]", title="Position - resistance, 10 V (cf. figs. 4.5, 4.9)")
     ax.legend(fontsize=8)
     ax = axes[0, 1]
-    ax.plot(loop["t"], loop["x_meas"] * 1e3, label="position [mm]")
+    ax.plot(loop["t"], loop["x_meas"][:, 3] * 1e3, label="position [mm]")
     ax2 = ax.twinx()
-    ax2.plot(loop["t"], loop["r_meas"], color="C3", lw=0.8, label="resistance [ohm]")
-    ax.set(xlabel="time [s]", ylabel="position [mm]", title="0.05 Hz sine, P control, fan, 10 V (cf. fig. 4.4)")
+    ax2.plot(loop["t"], loop["r_meas"][:, 3], color="C3", lw=0.8, label="resistance [ohm]")
+    ax.set(xlabel="time [s]", ylabel="position [mm]", title="0.05 Hz sine 0-8 mm, P control, fan, 10 V (cf. fig. 4.4)")
     ax2.set_ylabel("resistance [ohm]")
     return save(fig, out)
 
 
-def plot_holding(curve: dict[str, np.ndarray], out: Path) -> Path:
-    """Fig. 6.4 style: duty that holds a position at 10 V, heating and cooling branch."""
+def plot_holding(curve: dict[str, np.ndarray], slope_per_m: float, out: Path) -> Path:
+    """Fig. 6.4 style: duty that holds a position at 10 V, heating and cooling branch, and the fits."""
     fig, axes = new_figure(1, 1, size=(6.5, 4.5))
     ax = axes[0, 0]
     ax.plot(curve["x_heating"] * 1e3, curve["duty"], "o-", ms=3, label="simulated, reached while heating")
     ax.plot(curve["x_cooling"] * 1e3, curve["duty"], "s-", ms=3, label="simulated, reached while cooling")
     xs = np.linspace(0, 5, 10)
     ax.plot(xs, 12 * xs * 1e-3, "k--", label="report's fit 12 x (fig. 6.4)")
-    ax.plot([5], [0.06], "k*", ms=12, label="T4 target: 0.06 at 5 mm")
+    if np.isfinite(slope_per_m):
+        ax.plot(xs, slope_per_m * xs * 1e-3, "C3:", label=f"simulated fit through the origin {slope_per_m:.3g} x")
+    ax.plot([5], [0.06], "k*", ms=12, label="0.06 at 5 mm (A26)")
     ax.set(xlabel="position [mm]", ylabel="duty cycle [-]", title="Holding duty at 10 V (cf. fig. 6.4)", xlim=(-0.5, 10), ylim=(0, 0.09))
     ax.legend(fontsize=8)
     return save(fig, out)
@@ -88,12 +93,14 @@ def plot_efficiency(runs, cases: Sequence[tuple], out: Path) -> Path:
     return save(fig, out)
 
 
-def plot_multiplexed(runs, count_conditions, freq_conditions, out: Path) -> Path:
-    """Chapter 9: step responses against number of actuators, supply and cycling frequency."""
-    from agents.evaluation import chapter_9_label
+def plot_multiplexed(trace_of: Callable[[int, float, float], Any], count_conditions, freq_conditions, out: Path) -> Path:
+    """Chapter 9: step responses against number of actuators, supply and cycling frequency.
+
+    ``trace_of(n, f, v)`` returns the trace of n actuators cycled at f Hz on v volts.
+    """
 
     def x0(n: int, f: float, v: float):
-        trace = runs.traces[("9", "PID", chapter_9_label(n, f, v), "3 mm step")]
+        trace = trace_of(n, f, v)
         return trace.t, trace["position_m"][:, 0, 0] * 1e3
 
     fig, axes = new_figure(1, 4, size=(18, 4.2))
