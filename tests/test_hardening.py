@@ -205,17 +205,19 @@ def test_synth_refuses_to_overwrite_any_of_its_outputs(tmp_path, capsys):
     from sma_gym.cli import main
 
     csv = _synth(tmp_path, "s.csv")
-    for existing in (csv, tmp_path / "s.csv.json", tmp_path / "s.labels.json"):
-        others = {p: p.read_bytes() for p in tmp_path.iterdir() if p != existing}
-        existing.rename(tmp_path / "keep")
+    outputs = (csv, tmp_path / "s.csv.json", tmp_path / "s.labels.json")
+    for existing in outputs:
+        # Only this one of the three outputs exists (e.g. a sidecar written by hand).
+        for p in outputs:
+            p.unlink(missing_ok=True)
         existing.write_text("mine")
         assert main(["synth", "--out", str(csv), "--duration", "5", "--seed", "1"]) == 2
-        assert "--overwrite" in capsys.readouterr().err
+        err = capsys.readouterr().err
+        assert "--overwrite" in err and str(existing) in err
         assert existing.read_text() == "mine"
-        assert all(p.read_bytes() == b for p, b in others.items() if p.exists())
-        existing.unlink()
-        (tmp_path / "keep").rename(existing)
+        assert sorted(tmp_path.iterdir()) == [existing]
     assert main(["synth", "--out", str(csv), "--duration", "5", "--seed", "1", "--overwrite"]) == 0
+    assert all(p.read_text() != "mine" for p in outputs)
 
 
 # --- item 6: every argument checked before any work --------------------------------------------
