@@ -12,7 +12,7 @@ File format (JSON)::
       "version": 1,
       "actuator": { "wire": {...}, "mechanism": {...}, "convection": {...},
                     "driver": {...}, "sensors": {...}, "name": "...", "description": "..." },
-      "effects": { "latent_heat": {"parameters": {"latent_heat_j_kg": 20000.0}, "form": "default"} },
+      "effects": { "latent_heat": {"parameters": {"change_j_kg": -8000.0}, "form": "default"} },
       "notes": "free text, e.g. how the model was obtained"
     }
 """

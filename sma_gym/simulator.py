@@ -39,8 +39,9 @@ DEFAULT_MAX_TEMPERATURE_STEP_K = 0.5
 DEFAULT_MAX_SUBSTEP_S = 10e-3
 
 DEFAULT_MAX_POSITION_STEP_M = 10e-6
-"""Largest position change per sub-step: resolves the fast motion and stress transient at the
-end-of-travel cut (at 20 V the wire arrives at ~0.2 m/s), which moves hysterons irreversibly."""
+"""Largest position change per sub-step within 2 mm of the end-of-travel cut: resolves the
+fast arrival and the stress transient of the stop (at 20 V the wire arrives at ~0.2 m/s),
+which moves hysterons irreversibly."""
 
 _NO_NOISE = np.zeros((0, 4, 0))
 _NO_RECORD = np.zeros((0, 0, 0))
@@ -97,8 +98,8 @@ def pack_params(
     col[L.P_A_F] = w.austenite_finish_c
     col[L.P_M_S] = w.martensite_start_c
     col[L.P_M_F] = w.martensite_finish_c
-    # Nominal latent heat plus the latent_heat effect's extra (off = 0); in kelvin per unit xi.
-    latent = (w.latent_heat_j_kg + fx.value("latent_heat", "latent_heat_j_kg")) / w.specific_heat_j_kg_k
+    # Nominal latent heat plus the latent_heat effect's change (off = 0); in kelvin per unit xi.
+    latent = max(0.0, w.latent_heat_j_kg + fx.value("latent_heat", "change_j_kg")) / w.specific_heat_j_kg_k
     col[L.P_LATENT] = latent
     col[L.P_LATENT_COOL] = latent * (0.7 if fx.form("latent_heat") == "asymmetric" else 1.0)
     # The transformation_spread effect adds an independent spread: variances add.

@@ -96,7 +96,7 @@ def test_cli_writes_report_model_and_json_and_the_env_runs_on_the_correction(tmp
     assert len(list(out.glob("*.png"))) >= 3
     # The corrected model loads and an env runs on it.
     model = load_model(str(out / "corrected_model.json"))
-    assert model.effects.get("latent_heat").values["latent_heat_j_kg"] > 5000
+    assert model.effects.get("latent_heat").values["change_j_kg"] < -3000
     env = gym.make("sma_gym:SMATracking-v0", model=str(out / "corrected_model.json"))
     env.reset(seed=0)
     env.step(np.array([0.5], dtype=np.float32))

@@ -87,7 +87,7 @@ def test_with_changes_rejects_unknown_fields():
 
 
 def test_model_config_round_trips_through_json(tmp_path):
-    model = ModelConfig(preset("bench-0.5mm-ht")).with_effect("latent_heat", {"latent_heat_j_kg": 12000.0})
+    model = ModelConfig(preset("bench-0.5mm-ht")).with_effect("latent_heat", {"change_j_kg": 12000.0})
     model = model.with_effect("sensor_lag", {"time_constant_s": 0.02}, form="second-order")
     path = model.save(tmp_path / "m.json")
     again = load_model(str(path))
@@ -110,9 +110,9 @@ def test_bad_model_files_give_clear_errors(tmp_path):
         load_model(str(wrong))
     out_of_bounds = tmp_path / "oob.json"
     out_of_bounds.write_text(
-        json.dumps({"format": "sma-gym-model", "version": 1, "effects": {"latent_heat": {"latent_heat_j_kg": -1}}})
+        json.dumps({"format": "sma-gym-model", "version": 1, "effects": {"latent_heat": {"change_j_kg": -1e6}}})
     )
-    with pytest.raises(ValueError, match="latent_heat_j_kg"):
+    with pytest.raises(ValueError, match="change_j_kg"):
         load_model(str(out_of_bounds))
     with pytest.raises(ValueError, match="does not exist"):
         load_model(str(tmp_path / "missing.json"))

@@ -263,7 +263,7 @@ def test_resolved_and_averaged_pwm_agree_apart_from_ripple():
 
 
 def test_energy_is_accounted_for():
-    model = ModelConfig(preset("standard")).with_effect("latent_heat", {"latent_heat_j_kg": 24200.0})
+    model = ModelConfig(preset("standard")).with_effect("latent_heat", {"change_j_kg": 10000.0})
     duty = np.r_[np.ones(600), np.full(4000, 0.06), np.zeros(5000)]
     no_latent = ModelConfig(preset("standard").with_changes(**{"wire.latent_heat_j_kg": 0.0}))
     sim = Simulator([no_latent, model, preset("supply-20v")], pwm_mode="resolved")

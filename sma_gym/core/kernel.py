@@ -178,7 +178,7 @@ def sensor_output(state, params, i):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, nodes1, n_nodes):
+def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, nodes1, u_star, n_nodes):
     x0 = state[i, S_X]
     v0 = state[i, S_V]
     t0 = state[i, S_T]
@@ -236,7 +236,7 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
     for attempt in range(3):
         z, x1, s1, t1 = solve_step(
             stick, x0, t_pred, z0, k_ext, b_ext - friction, area, length, d_a, d_m, eps0, alpha, t_amb, sigma0,
-            c_a, c_m, a_s, a_f, m_s, m_f, lat_h, lat_c, n_nodes, shift_h, shift_c, weights, nodes0, nodes1,
+            c_a, c_m, a_s, a_f, m_s, m_f, lat_h, lat_c, n_nodes, shift_h, shift_c, weights, nodes0, nodes1, u_star,
         )
         if f_c <= 0.0:
             break
@@ -321,7 +321,7 @@ def _take_readings(state, params, i, on_time, t_settle, n_pos, n_r, n_i, n_v):
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _control_step(
-    state, params, i, duty_cmd, dt, n_pos, n_r, n_i, n_v, shift_h, shift_c, weights, nodes0, nodes1, n_nodes, saved
+    state, params, i, duty_cmd, dt, n_pos, n_r, n_i, n_v, shift_h, shift_c, weights, nodes0, nodes1, u_star, n_nodes, saved
 ):
     duty = duty_cmd
     if duty < 0.0:
@@ -391,10 +391,12 @@ def _control_step(
         rate = abs(power - h_conv * params[i, P_SURFACE] * (t_now - params[i, P_T_AMB])) / heat_cap
         if rate * seg > dt_max_k:
             seg = dt_max_k / rate
-        # ... and the position by at most P_DX_MAX: the stress transient of fast motion moves
-        # the hysterons irreversibly, so it must be resolved where it happens (end of travel).
+        # ... and, approaching the end-of-travel cut, the position by at most P_DX_MAX: there
+        # the wire stops abruptly, and the stress transient of that stop moves hysterons
+        # irreversibly, so it must be resolved. Elsewhere the motion follows the temperature
+        # quasi-statically and the temperature bound suffices.
         speed = abs(state[i, S_V])
-        if speed * seg > params[i, P_DX_MAX]:
+        if speed * seg > params[i, P_DX_MAX] and state[i, S_X] > params[i, P_EOT] - CUT_WATCH_M:
             seg = params[i, P_DX_MAX] / speed
         # Bounded work whatever the parameters: never more than MAX_SUBSTEPS per control step
         # (a physically meaningless model then integrates inaccurately, but it returns).
@@ -427,7 +429,7 @@ def _control_step(
                 if switched_on:
                     energy = power * pulse_integral(tau, tau + seg, tau_rise, rise_form)
                 state[i, S_PWM_TAU] = tau + seg
-            _substep(state, params, i, seg, energy, shift_h, shift_c, weights, nodes0, nodes1, n_nodes)
+            _substep(state, params, i, seg, energy, shift_h, shift_c, weights, nodes0, nodes1, u_star, n_nodes)
             if not watch or attempt == 1:
                 break
             x_start = saved[S_X]
@@ -484,6 +486,7 @@ def advance(state, params, duty, dt, noise, record, record_rows):
     weights = np.empty(MAX_SPREAD_NODES)
     nodes0 = np.empty(MAX_SPREAD_NODES)
     nodes1 = np.empty(MAX_SPREAD_NODES)
+    u_star = np.empty(MAX_SPREAD_NODES)
     saved = np.empty(state.shape[1])
     # Each actuator's state and parameters are contiguous (actuator-major), so the loop streams
     # through memory once per step however many actuators there are.
@@ -504,7 +507,7 @@ def advance(state, params, duty, dt, noise, record, record_rows):
                 n_i = noise[s, 2, i]
                 n_v = noise[s, 3, i]
             _control_step(
-                state, params, i, duty[s, i], dt, n_pos, n_r, n_i, n_v, shift_h, shift_c, weights, nodes0, nodes1, n_nodes, saved
+                state, params, i, duty[s, i], dt, n_pos, n_r, n_i, n_v, shift_h, shift_c, weights, nodes0, nodes1, u_star, n_nodes, saved
             )
             if have_record:
                 for j in range(n_rec):

@@ -90,14 +90,15 @@ EFFECTS: dict[str, Effect] = {
             name="latent_heat",
             title="Latent heat of transformation",
             description=(
-                "The M->A transformation absorbs, the A->M transformation releases more latent "
-                "heat than the wire's nominal latent_heat_j_kg (the report's own model had "
-                "none; the datasheet's 24.2 J/g is nominal now). Adds Delta_H m xi' to the "
-                "heat balance (§5.8)."
+                "The latent heat the transformation absorbs (M->A) and releases (A->M) differs "
+                "from the wire's nominal latent_heat_j_kg (the datasheet's 24.2 J/g for "
+                "Flexinol; NiTi alloys range over about 15-30 J/g, and the report's own model "
+                "had none, §5.8): Delta_H becomes nominal + change_j_kg (never below zero) in "
+                "the heat balance's Delta_H m xi' term."
             ),
             source="§5.8",
             parameters=(
-                _p("latent_heat_j_kg", "J/kg", 0.0, 0.0, 40000.0, 24200.0, "latent heat per unit mass"),
+                _p("change_j_kg", "J/kg", 0.0, -24200.0, 24200.0, -12000.0, "change of the latent heat per unit mass"),
             ),
             forms=("default", "asymmetric"),
         ),

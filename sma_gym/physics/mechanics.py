@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 
 from sma_gym._jit import njit
-from sma_gym.physics.transformation import cosine_fraction, cosine_fraction_slope
+from sma_gym.physics.transformation import cosine_fraction, cosine_fraction_inverse, cosine_fraction_slope
 
 FRICTION_COULOMB = 0
 FRICTION_STRIBECK = 1
@@ -92,6 +92,7 @@ def _evaluate(
     weights,
     xi_nodes0,
     xi_nodes_out,
+    u_star,
 ):
     """Z(z) and dZ/dz for a trial mean martensite fraction z; fills xi_nodes_out.
 
@@ -126,17 +127,16 @@ def _evaluate(
     for k in range(n_nodes):
         u_h = (t1 - shift_h[k] - a_s - sigma1 / c_a) * inv_h
         u_c = (t1 - shift_c[k] - m_f - sigma1 / c_m) * inv_c
-        xi_h = cosine_fraction(u_h)
-        xi_c = cosine_fraction(u_c)
-        old = xi_nodes0[k]
-        if old > xi_h:
-            xi = xi_h
+        # F is decreasing, so F(u_h) < old exactly when u_h > u_star[k] = F^-1(old): the
+        # comparison needs no cosine, and only a hysteron on a branch evaluates one.
+        if u_h > u_star[k]:
+            xi = cosine_fraction(u_h)
             dxi = cosine_fraction_slope(u_h) * du_h
-        elif old < xi_c:
-            xi = xi_c
+        elif u_c < u_star[k]:
+            xi = cosine_fraction(u_c)
             dxi = cosine_fraction_slope(u_c) * du_c
         else:
-            xi = old
+            xi = xi_nodes0[k]
             dxi = 0.0
         xi_nodes_out[k] = xi
         big_z += weights[k] * xi
@@ -174,6 +174,7 @@ def solve_step(
     weights,
     xi_nodes0,
     xi_nodes_out,
+    u_star,
 ):
     """One implicit step: returns (z, x1, sigma1, t1) and fills ``xi_nodes_out``.
 
@@ -183,6 +184,8 @@ def solve_step(
     # r(z) = z - Z(z) is increasing with slope >= 1, and r(Z(z0)) has the opposite sign of
     # r(z0): the first evaluation at z0 brackets the root. Newton steps, bisection if a step
     # leaves the bracket. (One evaluation site, so the compiled code inlines it once.)
+    for k in range(n_nodes):
+        u_star[k] = cosine_fraction_inverse(xi_nodes0[k])
     z = z0
     lo = 0.0
     hi = 1.0
@@ -192,7 +195,7 @@ def solve_step(
     for it in range(80):
         big_z, dbig_z, x1, sigma1, t1 = _evaluate(
             z, stick, x0, t_pred, z0, k_ext, b_ext, area, length, d_a, d_m, eps0, alpha, t_amb, sigma0,
-            c_a, c_m, a_s, a_f, m_s, m_f, latent_heat, latent_cool, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out,
+            c_a, c_m, a_s, a_f, m_s, m_f, latent_heat, latent_cool, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out, u_star,
         )
         r = z - big_z
         if it == 0:

@@ -65,6 +65,16 @@ def cosine_fraction(u: float) -> float:
 
 
 @njit(cache=True, inline="always", error_model="numpy")
+def cosine_fraction_inverse(xi: float) -> float:
+    """The u in [0, 1] with F(u) = xi (xi clipped to [0, 1])."""
+    if xi >= 1.0:
+        return 0.0
+    if xi <= 0.0:
+        return 1.0
+    return math.acos(2.0 * xi - 1.0) / math.pi
+
+
+@njit(cache=True, inline="always", error_model="numpy")
 def cosine_fraction_slope(u: float) -> float:
     """dF/du (zero outside (0, 1))."""
     if u <= 0.0 or u >= 1.0:
