@@ -108,10 +108,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="sma-gym", description="SMA actuator simulator, environments and tools.")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("fidelity", help="compare the simulator with the report's numbers (T1-T5, T8, T9)")
+    p = sub.add_parser("fidelity", help="compare the simulator with every result of the report (125 rows of REPORT_TARGETS, Table 6.1 and chapters 7-9 included)")
     p.add_argument("--out", help="folder for the PNG plots")
-    p.add_argument("--json", action="store_true", help="print the rows as a JSON list instead of a table")
-    p.add_argument("--quick", action="store_true", help="shorter resistance experiment (for smoke tests)")
+    p.add_argument("--json", action="store_true", help='print {"rows": [...], "summary": {...}} as JSON instead of a table')
+    p.add_argument("--quick", action="store_true", help="one seed, shorter sines and sweeps (about 1.5 minutes, for smoke tests)")
     p.set_defaults(func=_fidelity)
 
     p = sub.add_parser("bench", help="simulator speed in actuator-steps/s (1 kHz control step)")

@@ -151,7 +151,7 @@ def parse_report_targets(markdown: str) -> tuple[Target, ...]:
     targets = []
     for line in markdown.splitlines():
         line = line.strip()
-        if not line.startswith("|") or line.startswith("|---") or line.startswith("| id "):
+        if not line.startswith("|") or line.startswith(("|---", "| id ")):
             continue
         cells = [c.strip() for c in line.strip("|").split("|")]
         if len(cells) != 5:
