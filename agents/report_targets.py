@@ -51,7 +51,7 @@ from agents.evaluation import (
     run_table_6_1,
 )
 from sma_gym import fidelity
-from sma_gym.fidelity import NO_OVERSHOOT_MM, SIGNIFICANT_CHANGE, VISIBLE_ERROR_MM, FidelityResult, Row, fmt, make_row, numeric_row
+from sma_gym.fidelity import NO_OVERSHOOT_MM, SIGNIFICANT_CHANGE, VISIBLE_ERROR_MM, FidelityResult, Row, fmt, make_row, numeric_row, ratio
 from sma_gym.report_targets import target, within_factor, within_tolerance
 
 
@@ -114,6 +114,10 @@ class Metrics:
     def __call__(self, policy: str, metric: str, reference: str = "step", condition: str = "standard") -> float:
         value = self.results.value(self._key(condition), policy, condition, reference, metric)
         return value * 1e3 if metric.endswith("_m") else value
+
+    def change(self, policy: str, metric: str, reference: str, condition: str) -> float:
+        """|metric| under ``condition`` over |metric| under standard conditions."""
+        return ratio(abs(self(policy, metric, reference, condition)), abs(self(policy, metric, reference)))
 
     def wiggle_mm(self, policy: str, condition: str, heating: bool) -> float:
         """Oscillation while the sine reference rises (or falls), mean over seeds [mm]."""
@@ -264,14 +268,14 @@ def chapter_7_rows(m: Metrics) -> list[Row]:
     rows.append(make_row("7c", f"VSC4 {_sse_text(s['VSC4'])}, VSC4 + FF {_sse_text(s['VSC4 + FF'])} mm",
                          _sse_exists(s["VSC4"]) and _sse_absent(s["VSC4 + FF"]), "fan, step",
                          f"|error| > {VISIBLE_ERROR_MM:g} mm without feedforward, <= with"))
-    ratio = {c: abs(m(c, "max_error_cooling_m", "sine", fan)) / abs(m(c, "max_error_cooling_m", "sine")) for c in ("PID", "VSC4")}
-    rows.append(make_row("7d", ", ".join(f"{c} x{fmt(v)}" for c, v in ratio.items()),
-                         all(v <= 1.0 - SIGNIFICANT_CHANGE for v in ratio.values()) and ratio["VSC4"] < ratio["PID"],
+    fall = {c: m.change(c, "max_error_cooling_m", "sine", fan) for c in ("PID", "VSC4")}
+    rows.append(make_row("7d", ", ".join(f"{c} x{fmt(v)}" for c, v in fall.items()),
+                         all(v <= 1.0 - SIGNIFICANT_CHANGE for v in fall.values()) and fall["VSC4"] < fall["PID"],
                          "fan against standard: |sine cooling error| ratio",
                          f"both at most {1 - SIGNIFICANT_CHANGE:g}x, VSC4's the larger fall"))
-    ratio = {c: abs(m(c, "max_error_heating_m", "sine", fan)) / abs(m(c, "max_error_heating_m", "sine")) for c in ("VSC3", "VSC4")}
-    rows.append(make_row("7e", ", ".join(f"{c} x{fmt(v)}" for c, v in ratio.items()),
-                         all(v >= 1.0 + SIGNIFICANT_CHANGE for v in ratio.values()),
+    rise = {c: m.change(c, "max_error_heating_m", "sine", fan) for c in ("VSC3", "VSC4")}
+    rows.append(make_row("7e", ", ".join(f"{c} x{fmt(v)}" for c, v in rise.items()),
+                         all(v >= 1.0 + SIGNIFICANT_CHANGE for v in rise.values()),
                          "fan against standard: |sine heating error| ratio", f"both at least {1 + SIGNIFICANT_CHANGE:g}x"))
     o = {c: m(c, "overshoot_m", condition=fan) for c in TRIO}
     rows.append(make_row("7f", ", ".join(f"{c} {fmt(v)}" for c, v in o.items()) + " mm overshoot",
@@ -288,13 +292,13 @@ def chapter_7_rows(m: Metrics) -> list[Row]:
     s = {c: m(c, "steady_state_error_m", condition=low) for c in ("VSC3", "VSC4")}
     rows.append(make_row("7i", ", ".join(f"{c} {_sse_text(v)}" for c, v in s.items()) + " mm",
                          all(_sse_exists(v) for v in s.values()), "5 V, step", f"both |error| > {VISIBLE_ERROR_MM:g} mm"))
-    ratio = {c: m(c, "rms_error_m", "sine", low) / m(c, "rms_error_m", "sine") for c in TRIO}
-    rows.append(make_row("7j", ", ".join(f"{c} x{fmt(v)}" for c, v in ratio.items()),
-                         ratio["VSC3"] >= 2.0 and ratio["VSC4"] >= 2.0 and 1.0 <= ratio["PID"] <= 1.0 + 2 * SIGNIFICANT_CHANGE,
+    worse = {c: m.change(c, "rms_error_m", "sine", low) for c in TRIO}
+    rows.append(make_row("7j", ", ".join(f"{c} x{fmt(v)}" for c, v in worse.items()),
+                         worse["VSC3"] >= 2.0 and worse["VSC4"] >= 2.0 and 1.0 <= worse["PID"] <= 1.0 + 2 * SIGNIFICANT_CHANGE,
                          "5 V against standard: sine RMS error ratio",
                          f"'very bad': VSCs at least 2x; 'slightly worse': PID in [1, {1 + 2 * SIGNIFICANT_CHANGE:g}]x"))
     o = {c: m(c, "overshoot_m", condition=high) for c in TRIO}
-    vsc_ratio = o["PID"] / max(float(np.mean([o["VSC3"], o["VSC4"]])), 1e-12)
+    vsc_ratio = ratio(o["PID"], float(np.mean([o["VSC3"], o["VSC4"]])))
     rows.append(make_row("7k", ", ".join(f"{c} {fmt(v)}" for c, v in o.items()) + f" mm overshoot (PID / VSC mean {fmt(vsc_ratio)})",
                          o["VSC3"] > 0.0 and o["VSC4"] > 0.0 and within_factor(vsc_ratio, 4.0, 1.5), "15 V, step",
                          "VSCs overshoot (> 0) and PID / mean VSC overshoot within a factor 1.5 of 4"))
@@ -308,9 +312,9 @@ def chapter_7_rows(m: Metrics) -> list[Row]:
     rows.append(make_row("7m", ", ".join(f"{c} {fmt(a)} -> {fmt(b)}" for c, (a, b) in deg.items()) + " mm",
                          any(b > a for a, b in deg.values()), "15 V sine: |cooling error| without -> with feedforward",
                          "larger with feedforward for at least one controller"))
-    ratio = {c: m(c, "rms_error_m", "sine", thin) / m(c, "rms_error_m", "sine") for c in TRIO + TRIO_FF}
-    rows.append(make_row("7n", ", ".join(f"{c} x{fmt(v)}" for c, v in ratio.items()),
-                         all(abs(v - 1.0) <= SIGNIFICANT_CHANGE for v in ratio.values()), "0.2 mm wire against standard: sine RMS error ratio",
+    same = {c: m.change(c, "rms_error_m", "sine", thin) for c in TRIO + TRIO_FF}
+    rows.append(make_row("7n", ", ".join(f"{c} x{fmt(v)}" for c, v in same.items()),
+                         all(abs(v - 1.0) <= SIGNIFICANT_CHANGE for v in same.values()), "0.2 mm wire against standard: sine RMS error ratio",
                          f"each within +-{SIGNIFICANT_CHANGE:.0%}"))
     vscs = ("VSC3", "VSC4", "VSC3 + FF", "VSC4 + FF")
     pid_over = m("PID", "overshoot_m", condition=thick)
@@ -335,7 +339,7 @@ def chapter_7_rows(m: Metrics) -> list[Row]:
                          "'heavy': each at least 3x standard and >= 0.05 mm"))
     better = all(m(v, "overshoot_m", condition=c) < m(p, "overshoot_m", condition=c)
                  for c in CONDITIONS for p, vs in (("PID", ("VSC3", "VSC4")), ("PID + FF", ("VSC3 + FF", "VSC4 + FF"))) for v in vs)
-    degrade = {c: float(np.mean([m(c, "rms_error_m", "sine", cond) / m(c, "rms_error_m", "sine") for cond in CONDITIONS[1:]])) for c in TRIO}
+    degrade = {c: float(np.mean([m.change(c, "rms_error_m", "sine", cond) for cond in CONDITIONS[1:]])) for c in TRIO}
     rows.append(make_row("7s", "VSC overshoot below PID's in every condition: " + ("yes" if better else "no") + "; mean sine RMS ratio "
                          + ", ".join(f"{c} x{fmt(v)}" for c, v in degrade.items()),
                          better and min(degrade["VSC3"], degrade["VSC4"]) > degrade["PID"],

@@ -68,6 +68,7 @@ def test_tolerance_convention():
     assert not within_tolerance("table", math.nan, 1.0)
     with pytest.raises(ValueError):
         within_tolerance("qualitative", 1.0, 1.0)
+    assert fidelity.ratio(1.0, 0.0) == math.inf and math.isnan(fidelity.ratio(0.0, 0.0)) and fidelity.ratio(3.0, 2.0) == 1.5
 
 
 # --------------------------------------------------------------------------------------
