@@ -36,9 +36,9 @@ def duty_pattern(steps: int, n: int, seed: int = 0) -> np.ndarray:
     return np.ascontiguousarray(duty)
 
 
-def measure(n: int, pwm_mode: str, seconds: float = 0.6, repeats: int = 3) -> float:
+def measure(n: int, pwm_mode: str, seconds: float = 0.6, repeats: int = 3, model: object = "standard") -> float:
     """Best-of-``repeats`` actuator-steps/s for n actuators stepped one control step at a time."""
-    sim = Simulator("standard", n=n, pwm_mode=pwm_mode)
+    sim = Simulator(model, n=n, pwm_mode=pwm_mode)
     steps = max(50, int(seconds * 1000 * (1 if n == 1 else 0.25)))
     duty = duty_pattern(steps, n)
     # Warm-up: compile (or load the cache) and get the wires into their working range.

@@ -246,7 +246,7 @@ def test_multiplexed_env_caps_each_actuator_at_one_nth_and_tracks_each_reference
 
 
 def test_env_runs_on_a_model_configuration_file(tmp_path):
-    model = ModelConfig(preset("standard")).with_effect("latent_heat", {"change_j_kg": -10000.0})
+    model = ModelConfig(preset("standard")).with_effect("latent_heat", {"change_j_kg": 24200.0})
     path = model.save(tmp_path / "corrected.json")
     env = make("SMATracking-v0", model=str(path))
     assert env.unwrapped.sim.models[0] == model
