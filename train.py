@@ -86,7 +86,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     p.add_argument("--device", default="cpu", help="torch device, e.g. cpu, cuda, cuda:1, mps (default cpu)")
     p.add_argument("--quick", action="store_true", help=f"tiny budget ({QUICK_TIMESTEPS} steps) and a short evaluation, for smoke tests")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--threads",
+        type=int,
+        default=1,
+        help="torch intra-op threads (default 1: SAC's small networks gain nothing from more, and torch's default "
+        "pool of every core thrashes when anything else runs on the machine)",
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar or progress lines")
     return p.parse_args(argv)
 
 
@@ -109,6 +116,7 @@ def settings(args: argparse.Namespace) -> dict[str, Any]:
         "env_kwargs": dict(table.pop("env_kwargs", {})),
         "seed": args.seed,
         "device": args.device,
+        "threads": args.threads,
         "quick": args.quick,
     }
     for key in ("n_timesteps", "n_envs", "frame_stack", "history", "residual", "residual_scale"):
@@ -125,7 +133,9 @@ def settings(args: argparse.Namespace) -> dict[str, Any]:
     if run["seed"] < 0:
         raise ValueError(f"--seed {run['seed']}: expected an integer >= 0 (numpy and torch seeds are unsigned)")
     run["device"] = check_device(run["device"])
-    for name, value in (("timesteps", run["timesteps"]), ("n_envs", run["n_envs"]), ("frame_stack", run["frame_stack"])):
+    for name, value in (
+        ("timesteps", run["timesteps"]), ("n_envs", run["n_envs"]), ("frame_stack", run["frame_stack"]), ("threads", run["threads"])
+    ):
         if value < 1:
             raise ValueError(f"--{name.replace('_', '-')} = {value}: expected an integer >= 1")
     if run["frame_stack"] > 1 and (run["history"] != "none" or run["residual"] is not None):
@@ -281,6 +291,13 @@ def card(run: dict, name: str, **extra: Any) -> dict[str, Any]:
     }
 
 
+def progress_line(done: int, total: int, elapsed_s: float) -> str:
+    """One progress report: steps done, rate and the time left at that rate."""
+    rate = done / elapsed_s if elapsed_s > 0 else 0.0
+    left = f"about {(total - done) / rate / 60:.1f} min left" if rate > 0 else "time left unknown"
+    return f"train.py: {done}/{total} steps ({100 * done / total:.0f} %), {rate:.0f} steps/s, {left}"
+
+
 def train(run: dict, out: Path, progress: bool = True) -> dict[str, Any]:
     import torch
     from stable_baselines3 import PPO, SAC
@@ -293,6 +310,9 @@ def train(run: dict, out: Path, progress: bool = True) -> dict[str, Any]:
 
     from agents.policies import save_policy, write_card
 
+    # Deliberate thread count (see --threads): on a busy 2-core machine torch's default pool
+    # made an SB3 run of this env 20x slower than one thread, for the same result.
+    torch.set_num_threads(run["threads"])
     torch.manual_seed(run["seed"])
     algo_cls = {"sac": SAC, "ppo": PPO}[run["algo"]]
     venv = make_vec_env(
@@ -336,14 +356,28 @@ def train(run: dict, out: Path, progress: bool = True) -> dict[str, Any]:
         deterministic=True,
         verbose=0,
     )
-    callbacks = CallbackList(
-        [
-            evaluation,
-            CardedCheckpoints(save_freq=per_env * 2, save_path=str(out / "checkpoints"), name_prefix=run["algo"]),
-        ]
-    )
+    class ProgressLines(BaseCallback):
+        """Progress as plain lines (CI, nohup, cluster logs: a redrawn bar is unreadable there)."""
+
+        def __init__(self, every_s: float = 60.0) -> None:
+            super().__init__()
+            self.every_s = every_s
+            self.start = self.last = time.perf_counter()
+
+        def _on_step(self) -> bool:
+            now = time.perf_counter()
+            if now - self.last >= self.every_s:
+                self.last = now
+                print(progress_line(self.num_timesteps, run["timesteps"], now - self.start), flush=True)
+            return True
+
+    bar = progress and sys.stdout.isatty()
+    items = [evaluation, CardedCheckpoints(save_freq=per_env * 2, save_path=str(out / "checkpoints"), name_prefix=run["algo"])]
+    if progress and not bar:
+        items.append(ProgressLines())
+    callbacks = CallbackList(items)
     start = time.perf_counter()
-    model.learn(total_timesteps=run["timesteps"], callback=callbacks, progress_bar=progress, tb_log_name=run["algo"])
+    model.learn(total_timesteps=run["timesteps"], callback=callbacks, progress_bar=bar, tb_log_name=run["algo"])
     train_s = time.perf_counter() - start
     save_policy(model, out / "final_model.zip", card(run, "final model", timesteps=run["timesteps"], train_time_s=train_s))
     best_at = run["timesteps"]

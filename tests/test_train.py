@@ -64,3 +64,17 @@ def test_train_rejects_bad_options():
     assert proc.returncode == 2 and "NoSuchEnv-v0" in proc.stderr
     proc = subprocess.run([sys.executable, str(ROOT / "train.py"), "--timesteps", "0"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "timesteps" in proc.stderr
+    proc = subprocess.run([sys.executable, str(ROOT / "train.py"), "--threads", "0"], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and "threads" in proc.stderr
+
+
+def test_progress_lines_report_steps_rate_and_time_left():
+    """Without a terminal (CI, nohup, cluster logs) train.py prints these instead of a bar."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("train_script", ROOT / "train.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    line = module.progress_line(50_000, 400_000, 100.0)
+    assert line == "train.py: 50000/400000 steps (12 %), 500 steps/s, about 11.7 min left"
+    assert "unknown" in module.progress_line(0, 400_000, 0.0)
