@@ -211,10 +211,11 @@ def make_vec_env(env_id: str, n_envs: int, env_kwargs: dict, frame_stack: int, s
     if max_episode_steps is not None:
         kwargs["max_episode_steps"] = max_episode_steps
     if gym.spec(env_id).vector_entry_point is not None:
+        # The adapter reports episodes itself (as Monitor does): no VecMonitor on top.
         venv = SB3VecEnv(gym.make_vec("sma_gym:" + env_id, num_envs=n_envs, vectorization_mode="vector_entry_point", **kwargs))
     else:
-        venv = DummyVecEnv([lambda: gym.make("sma_gym:" + env_id, **kwargs)] * n_envs)
-    venv = _agent_view(VecMonitor(venv), env_id, kwargs, frame_stack, history, residual, residual_scale)
+        venv = VecMonitor(DummyVecEnv([lambda: gym.make("sma_gym:" + env_id, **kwargs)] * n_envs))
+    venv = _agent_view(venv, env_id, kwargs, frame_stack, history, residual, residual_scale)
     venv.seed(seed)
     return venv
 

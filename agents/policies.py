@@ -32,10 +32,16 @@ import numpy as np
 from agents.controllers import Controller, ControllerSpec, spec_by_label
 
 
-def _env_attr(env: Any, name: str) -> Any:
-    """Read an attribute of a Gymnasium env, vector env or SB3 VecEnv."""
+def _env_attr(env: Any, name: str, per_env: bool = False) -> Any:
+    """Read an attribute of a Gymnasium env, vector env or SB3 VecEnv.
+
+    ``per_env``: a number that may differ between sub-envs (a scale): an adapter's
+    ``get_attr`` gives one entry per sub-env, kept as an array (a native vector env's own
+    attribute already is one).
+    """
     if hasattr(env, "get_attr"):
-        return env.get_attr(name)[0]
+        values = env.get_attr(name)
+        return np.asarray(values, dtype=float) if per_env else values[0]
     target = getattr(env, "unwrapped", env)
     return getattr(target, name)
 
@@ -50,8 +56,8 @@ class ControllerPolicy:
         self.k = len(self.feature_names)
         self.dt = float(_env_attr(env, "control_period_s"))
         self.duty_range = tuple(_env_attr(env, "duty_range"))
-        self.position_scale_m = np.asarray(_env_attr(env, "position_scale_m"), dtype=float)
-        self.resistance_scale_ohm = np.asarray(_env_attr(env, "resistance_scale_ohm"), dtype=float)
+        self.position_scale_m = np.asarray(_env_attr(env, "position_scale_m", per_env=True), dtype=float)
+        self.resistance_scale_ohm = np.asarray(_env_attr(env, "resistance_scale_ohm", per_env=True), dtype=float)
         self._filter_cutoff_hz = filter_cutoff_hz
         self._controller: Controller | None = None
         self._index = {name: i for i, name in enumerate(self.feature_names)}

@@ -175,10 +175,11 @@ def test_info_carries_the_true_state_and_energy():
 def test_reset_options_pick_the_reference():
     env = make("SMATracking-v0")
     for name, kind in (("report-step", "step"), ("report-sine", "sine"), ("ramp", "ramp"), ("random", "random")):
-        _, info = env.reset(seed=1, options={"reference": name})
-        assert info["reference"]["kind"] == kind
-    _, info = env.reset(seed=1, options={"reference": {"kind": "sine", "frequency_hz": 0.2, "amplitude_m": 2e-3}})
-    assert info["reference"]["frequency_hz"] == 0.2 and info["reference"]["amplitude_m"] == 2e-3
+        env.reset(seed=1, options={"reference": name})
+        assert env.unwrapped.reference_description()["kind"] == kind
+    env.reset(seed=1, options={"reference": {"kind": "sine", "frequency_hz": 0.2, "amplitude_m": 2e-3}})
+    described = env.unwrapped.reference_description()
+    assert described["frequency_hz"] == 0.2 and described["amplitude_m"] == 2e-3
     with pytest.raises(ValueError, match="zigzag"):
         env.reset(options={"reference": "zigzag"})
     with pytest.raises(ValueError, match="colour"):
@@ -211,8 +212,8 @@ def test_robust_env_draws_conditions_from_its_ranges_and_reports_them():
     env = make("SMARobust-v0")
     seen = set()
     for seed in range(30):
-        _, info = env.reset(seed=seed)
-        c = info["condition"]
+        env.reset(seed=seed)
+        c = env.unwrapped.condition
         assert 5.0 <= c["supply_voltage_v"] <= 15.0
         assert 0.2e-3 <= c["wire_diameter_m"] <= 0.5e-3
         seen.add(c["convection"])
@@ -223,16 +224,17 @@ def test_robust_env_draws_conditions_from_its_ranges_and_reports_them():
         assert sim_p[L.P_AREA] == pytest.approx(np.pi * c["wire_diameter_m"] ** 2 / 4)
     assert seen == {"natural", "forced"}
     fixed = make("SMARobust-v0", supply_voltage_v=15.0, convection="forced", wire_diameter_m=0.5e-3, spread=0.0)
-    _, info = fixed.reset(seed=5)
-    assert info["condition"]["supply_voltage_v"] == 15.0 and info["condition"]["convection"] == "forced"
-    assert info["condition"]["transformation_shift_k"] == 0.0
+    fixed.reset(seed=5)
+    c = fixed.unwrapped.condition
+    assert c["supply_voltage_v"] == 15.0 and c["convection"] == "forced"
+    assert c["transformation_shift_k"] == 0.0
 
 
 def test_multiplexed_env_caps_each_actuator_at_one_nth_and_tracks_each_reference():
     env = make("SMAMultiplexed-v0", n_actuators=8, cycling_frequency_hz=2000.0)
     obs, info = env.reset(seed=0)
     assert obs.shape == (8 * len(FEATURES[TRACKING]),) and env.action_space.shape == (8,)
-    assert len({str(r) for r in info["references"]}) == 8
+    assert len({str(r) for r in env.unwrapped.reference_description()}) == 8
     _, _, _, _, info = env.step(np.ones(8, dtype=np.float32))
     assert np.allclose(info["duty"], 1.0 / 8)
     assert env.unwrapped.sim.pwm_mode == "resolved"
@@ -282,7 +284,10 @@ def test_rgb_array_render_shows_the_episode():
 )
 def test_vector_env_matches_single_envs_step_for_step(env_id, kwargs):
     n = 4
-    venv = gym.make_vec("sma_gym:" + env_id, num_envs=n, vectorization_mode="vector_entry_point", max_episode_steps=50, **kwargs)
+    venv = gym.make_vec(
+        "sma_gym:" + env_id, num_envs=n, vectorization_mode="vector_entry_point", max_episode_steps=50,
+        autoreset_mode=gym.vector.AutoresetMode.SAME_STEP, **kwargs,
+    )
     assert venv.metadata["autoreset_mode"] == gym.vector.AutoresetMode.SAME_STEP
     singles = [make(env_id, max_episode_steps=50, **kwargs) for _ in range(n)]
     vo, _ = venv.reset(seed=7)

@@ -10,14 +10,19 @@ SMARobust-v0       tracking under randomised chapter-7 conditions (supply, fan, 
 ================== =========================================================================
 
 ``gymnasium.make("sma_gym:SMATracking-v0")`` works in a fresh interpreter (the ``module:``
-prefix imports ``sma_gym``, which registers the ids). The three single-actuator ids also
-have a native vector env: ``gymnasium.make_vec(id, num_envs=N,
-vectorization_mode="vector_entry_point")``.
+prefix imports ``sma_gym``, which registers the ids), and ``env.spec.id`` keeps that form,
+so a logged id can be made again anywhere. All four entry points live in
+:mod:`sma_gym.envs.sma_gym_envs`, so ``gymnasium.pprint_registry()`` lists the ids together
+under ``sma_gym_envs``. The three single-actuator ids also have a native vector env:
+``gymnasium.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")``.
 """
 
 from __future__ import annotations
 
+import dataclasses
+
 import gymnasium
+from gymnasium.envs.registration import EnvSpec
 
 EPISODE_STEPS = 1000
 """Registered ``max_episode_steps``: 10 s at the default 10 ms control period."""
@@ -25,19 +30,48 @@ EPISODE_STEPS = 1000
 ENV_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMAMultiplexed-v0", "SMARobust-v0")
 
 
+MODULE = "sma_gym"
+"""The module ``gymnasium.make("sma_gym:<id>")`` imports to register the ids."""
+
+
+class ImportableSpec:
+    """Mixin for the envs: ``spec.id`` carries the ``sma_gym:`` module prefix.
+
+    ``gymnasium.make("sma_gym:SMATracking-v0")`` strips the prefix from the spec it stores,
+    so a logged ``env.spec.id`` could not be made again in a process that has not imported
+    ``sma_gym``. Gymnasium resolves ``module:id`` everywhere (make, make_vec, spec), so the
+    prefixed id is the one form that works in any process. Ids registered by users on our
+    entry points are left as they are (their module is unknown here).
+    """
+
+    _spec: EnvSpec | None = None
+
+    @property
+    def spec(self) -> EnvSpec | None:
+        return self._spec
+
+    @spec.setter
+    def spec(self, value: EnvSpec | None) -> None:
+        if value is not None and value.id in ENV_IDS:
+            value = dataclasses.replace(value, id=f"{MODULE}:{value.id}")
+        self._spec = value
+
+
 def register_envs() -> None:
+    """Register the four ids (skipping ids already registered, e.g. on a second import)."""
+    entry = "sma_gym.envs.sma_gym_envs:"
     specs = (
-        ("SMATracking-v0", "sma_gym.envs.single:tracking", "sma_gym.envs.vector:tracking"),
-        ("SMASelfSensing-v0", "sma_gym.envs.single:self_sensing", "sma_gym.envs.vector:self_sensing"),
-        ("SMARobust-v0", "sma_gym.envs.single:robust", "sma_gym.envs.vector:robust"),
-        ("SMAMultiplexed-v0", "sma_gym.envs.multiplexed:SMAMultiplexedEnv", None),
+        ("SMATracking-v0", "tracking", "tracking_vector"),
+        ("SMASelfSensing-v0", "self_sensing", "self_sensing_vector"),
+        ("SMARobust-v0", "robust", "robust_vector"),
+        ("SMAMultiplexed-v0", "SMAMultiplexedEnv", None),
     )
-    for env_id, entry, vector_entry in specs:
+    for env_id, single, vector in specs:
         if env_id in gymnasium.registry:
             continue
         gymnasium.register(
             id=env_id,
-            entry_point=entry,
-            vector_entry_point=vector_entry,
+            entry_point=entry + single,
+            vector_entry_point=None if vector is None else entry + vector,
             max_episode_steps=EPISODE_STEPS,
         )

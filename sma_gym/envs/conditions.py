@@ -115,6 +115,33 @@ class Conditions:
         return replace(base, actuator=actuator), condition
 
 
+CONDITION_INFO_KEYS = (
+    "condition_supply_voltage_v",
+    "condition_forced_convection",
+    "condition_wire_diameter_m",
+    "condition_convection_scale",
+    "condition_transformation_shift_k",
+    "condition_strain_scale",
+    "condition_preload_scale",
+    "condition_resistivity_scale",
+)
+"""The ``info`` keys of a drawn condition: the same for every draw, so batched clients
+(vector envs, TorchRL) can stack them."""
+
+
+def condition_info(condition: dict[str, Any]) -> dict[str, float | bool]:
+    """A drawn condition (:meth:`Conditions.draw`) as flat ``info`` entries.
+
+    Numbers stay floats; the convection name becomes the bool
+    ``condition_forced_convection``, so every value is a plain JSON scalar of fixed type.
+    """
+    flat: dict[str, float | bool] = {}
+    for key in CONDITION_INFO_KEYS:
+        name = key[len("condition_"):]
+        flat[key] = condition["convection"] == "forced" if name == "forced_convection" else float(condition[name])
+    return flat
+
+
 def chapter7_conditions() -> Sequence[tuple[str, dict[str, Any]]]:
     """The report's chapter-7 test conditions as robustness-env kwargs (no spread)."""
     return (

@@ -12,7 +12,18 @@ Action: ``Box(-1, 1, (n,), float32)``; actuator j's duty is ``(a_j + 1) / 2 / n`
 [0, 1/n]); out-of-range values are clipped, NaN or inf raise ``ValueError``.
 Observation: the tracking env's features for each actuator, concatenated (n * 10).
 Reward: the mean over actuators of the tracking env's reward. ``terminated`` when any wire
-exceeds the overheat limit. ``info`` holds the true state of every actuator as arrays (n,).
+exceeds the overheat limit.
+
+``info`` (the same keys at reset and at every step): the single env's keys (see
+:mod:`sma_gym.envs.single`), per actuator as float (bool for ``resistance_valid``, int for
+``reference_kind``) arrays of fixed shape (n,), and ``time_s`` as a float. For a JSON log,
+``{k: np.asarray(v).tolist() for k, v in info.items()}``. Each actuator's full reference
+description is ``env.unwrapped.reference_description()`` (a list, one dict per actuator).
+
+Version history: 0.2: the reset ``info["references"]`` list of dicts is gone (use
+``reference_description()``); ``reference_kind`` added; unknown kwargs raise
+``ValueError``; ``env.spec.id`` carries the ``sma_gym:`` prefix; ``render()`` no longer
+switches matplotlib's global backend. 0.1: first release.
 """
 
 from __future__ import annotations
@@ -26,15 +37,20 @@ from gymnasium import spaces
 from sma_gym._validation import require_action, require_int_range, require_range
 from sma_gym.core import layout as L
 from sma_gym.electrical.multiplexer import Multiplexer
+from sma_gym.envs import ImportableSpec, task
 from sma_gym.envs import references as refs
-from sma_gym.envs import task
-from sma_gym.envs.render import EpisodeHistory, draw, to_rgb
-from sma_gym.envs.single import TRACKING, Settings
+from sma_gym.envs.render import Renderer
+from sma_gym.envs.single import STATE_INFO, TRACKING, Settings
 from sma_gym.simulator import Simulator
 
 
-class SMAMultiplexedEnv(gym.Env):
-    """n actuators sharing one PWM (see the module docstring)."""
+class SMAMultiplexedEnv(ImportableSpec, gym.Env):
+    """n actuators sharing one PWM.
+
+    Spaces, reward, episode end, ``info``, kwargs and version history: see the module
+    docstring. Besides the Gymnasium API: :meth:`reference_description`, ``multiplexer``,
+    ``position_scale_m``, ``resistance_scale_ohm``, ``duty_range``, ``control_period_s``.
+    """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 100}
 
@@ -50,8 +66,7 @@ class SMAMultiplexedEnv(gym.Env):
         if "pwm_mode" in kwargs:
             raise ValueError("pwm_mode: the multiplexed env is always PWM-resolved")
         self.settings = Settings.from_kwargs(TRACKING, **kwargs)
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode = {render_mode!r}: expected one of {self.metadata['render_modes']} or None")
+        self._renderer = Renderer(render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=max(1, round(1.0 / self.settings.control_period_s)))
         self.multiplexer = Multiplexer(self.n, f)
@@ -79,8 +94,6 @@ class SMAMultiplexedEnv(gym.Env):
         self._term = np.zeros(self.n, dtype=np.bool_)
         self._ref = np.zeros(self.n)
         self._duty = np.zeros((1, self.n))
-        self._history = EpisodeHistory()
-        self._figure = None
 
     def duty_for(self, actions: np.ndarray) -> np.ndarray:
         return (np.clip(actions, -1.0, 1.0) + 1.0) * (0.5 / self.n)
@@ -97,19 +110,20 @@ class SMAMultiplexedEnv(gym.Env):
             specs = [options.get("reference")] * self.n
         if len(specs) != self.n:
             raise ValueError(f"options['references'] has {len(specs)} entries: expected {self.n}")
-        described = []
         for j, spec in enumerate(specs):
             ref = refs.resolve(spec, self.np_random, task.stroke_of(self.sim.params[j]), self.settings.reference)
             self.task.set_reference(j, ref)
-            described.append(ref.describe())
         self.sim.reset()
         for j in range(self.n):
             self.task.reset_column(j, self.sim.params[j])
         self._outputs()
-        self._history.clear()
-        if self.render_mode is not None:
-            self._record()
-        return self._obs.reshape(-1).copy(), {**self._info(), "references": described}
+        self._renderer.reset()
+        self._record()
+        return self._obs.reshape(-1).copy(), self._info()
+
+    def reference_description(self) -> list[dict[str, Any]]:
+        """Each actuator's reference (kind, name, parameters; keys depend on the kind)."""
+        return [ref.describe() for ref in self.task.references]
 
     def step(self, action):
         a = require_action(action, self.n)
@@ -118,10 +132,9 @@ class SMAMultiplexedEnv(gym.Env):
         self.sim.step_unchecked(self._duty)
         self.task.last_duty[:] = duty
         self._outputs()
-        if self.render_mode is not None:
-            self._record()
-            if self.render_mode == "human":
-                self.render()
+        self._record()
+        if self.render_mode == "human":
+            self.render()
         return self._obs.reshape(-1).copy(), float(self._reward.mean()), bool(self._term.any()), False, self._info()
 
     def _outputs(self) -> None:
@@ -134,57 +147,30 @@ class SMAMultiplexedEnv(gym.Env):
 
     def _info(self) -> dict[str, Any]:
         st = self.sim.state
-        return {
-            "position_m": st[:, L.S_X].copy(),
-            "position_measured_m": st[:, L.S_POS_MEAS].copy(),
-            "reference_m": self._ref.copy(),
-            "temperature_c": st[:, L.S_T].copy(),
-            "martensite_fraction": st[:, L.S_XI].copy(),
-            "stress_pa": st[:, L.S_SIGMA].copy(),
-            "power_w": st[:, L.S_POWER].copy(),
-            "electrical_energy_j": st[:, L.S_E_ELECTRIC].copy(),
-            "spring_force_n": st[:, L.S_FORCE].copy(),
-            "duty": st[:, L.S_DUTY_CMD].copy(),
-            "resistance_valid": ~np.isnan(st[:, L.S_R_MEAS]),
-            "time_s": float(st[0, L.S_TIME]),
-        }
+        # Per-actuator entries are float arrays of fixed shape (n,) so vector envs and batched
+        # clients can stack them; time is one Python float.
+        info: dict[str, Any] = {key: st[:, row].copy() for key, row in STATE_INFO}
+        info["reference_m"] = self._ref.copy()
+        info["reference_kind"] = self.task.kind.copy()
+        info["resistance_valid"] = ~np.isnan(st[:, L.S_R_MEAS])
+        info["time_s"] = float(st[0, L.S_TIME])
+        return info
 
     def _record(self) -> None:
         st = self.sim.state
-        self._history.add(
+        self._renderer.record(
             t=st[0, L.S_TIME],
-            position=st[:, L.S_X].copy(),
-            reference=self._ref.copy(),
-            duty=st[:, L.S_DUTY_CMD].copy(),
-            resistance=self.task.held[:, 0].copy(),
-            temperature=st[:, L.S_T].copy(),
+            position=st[:, L.S_X],
+            reference=self._ref,
+            duty=st[:, L.S_DUTY_CMD],
+            resistance=self.task.held[:, 0],
+            temperature=st[:, L.S_T],
         )
 
-    def render(self):
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human' to make()")
-            return None
+    def render(self) -> np.ndarray | None:
+        """``rgb_array``: the episode so far as a (640, 640, 3) uint8 frame; ``human``: show it."""
         title = f"{self.n} multiplexed actuators, {self.multiplexer.cycling_frequency_hz:g} Hz"
-        labels = [str(j) for j in range(self.n)]
-        if self.render_mode == "rgb_array":
-            import matplotlib
-
-            matplotlib.use("Agg")
-            self._figure = draw(self._history, title, labels, figure=self._figure)
-            return to_rgb(self._figure)
-        import matplotlib.pyplot as plt
-
-        t = self.sim.state[0, L.S_TIME]
-        if self._figure is not None and t - getattr(self, "_last_human_t", -1.0) < 0.1:
-            return None
-        self._last_human_t = t
-        self._figure = draw(self._history, title, labels, figure=self._figure)
-        plt.pause(0.001)
-        return None
+        return self._renderer.render(title, [str(j) for j in range(self.n)])
 
     def close(self) -> None:
-        if self._figure is not None:
-            import matplotlib.pyplot as plt
-
-            plt.close(self._figure)
-            self._figure = None
+        self._renderer.close()

@@ -1,68 +1,224 @@
-"""Rendering an episode: position and reference, duty, resistance, temperature."""
+"""Rendering an episode: position and reference, duty, resistance, temperature.
+
+Fast enough for ``RecordVideo`` at every step (``benchmarks/bench_render.py``): the figure
+is a :class:`matplotlib.figure.Figure` on its own Agg canvas (never pyplot, so the user's
+global backend and figure list are untouched); axes, labels and title are drawn only when
+an axis range has to grow (ranges grow by at least a quarter, so that happens a few dozen
+times per episode), and otherwise the cached background is restored and only the lines are
+drawn over it (blitting).
+"""
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
+WIDTH_IN = 6.4
+DPI = 100
+"""Frames are 640 x 640 pixels."""
+
 
 class EpisodeHistory:
-    """What an env records for rendering (only while a render mode is set)."""
+    """What an env records for rendering (only while a render mode is set).
+
+    Values are kept in numpy buffers that double when full, so reading the whole history
+    for a frame costs nothing however long the episode is.
+    """
 
     FIELDS = ("t", "position", "reference", "duty", "resistance", "temperature")
 
     def __init__(self) -> None:
-        self.data: dict[str, list] = {k: [] for k in self.FIELDS}
+        self._data: dict[str, np.ndarray] = {}
+        self._size = 0
+
+    def __len__(self) -> int:
+        return self._size
 
     def clear(self) -> None:
-        for v in self.data.values():
-            v.clear()
+        self._size = 0
 
-    def add(self, **values) -> None:
+    def add(self, **values: Any) -> None:
+        """Append one sample: each field a number, or an array (one entry per actuator)."""
+        if not self._data or self._size == len(self._data["t"]):
+            capacity = max(1024, 2 * self._size)
+            for k in self.FIELDS:
+                shape = np.shape(values[k])
+                grown = np.empty((capacity, *shape))
+                if k in self._data:
+                    grown[: self._size] = self._data[k][: self._size]
+                self._data[k] = grown
         for k in self.FIELDS:
-            self.data[k].append(values[k])
+            self._data[k][self._size] = values[k]
+        self._size += 1
 
     def arrays(self) -> dict[str, np.ndarray]:
-        return {k: np.asarray(v, dtype=float) for k, v in self.data.items()}
+        """The samples so far, per field: (T,) or (T, n_actuators) views (do not modify)."""
+        if not self._data:
+            return {k: np.empty(0) for k in self.FIELDS}
+        return {k: v[: self._size] for k, v in self._data.items()}
 
 
-def draw(history: EpisodeHistory, title: str, labels: Sequence[str] | None = None, figure=None):
-    """Draw the history into a matplotlib figure (new or reused); returns the figure."""
-    import matplotlib.pyplot as plt
-
-    if figure is None:
-        figure, _ = plt.subplots(4, 1, figsize=(6.4, 6.4), sharex=True)
-    axes = figure.axes
-    for ax in axes:
-        ax.clear()
-        ax.grid(True, alpha=0.3)
-    h = history.arrays()
-    t = h["t"]
-    if t.size:
-        pos = np.atleast_2d(h["position"].T).T if h["position"].ndim > 1 else h["position"][:, None]
-        ref = np.atleast_2d(h["reference"].T).T if h["reference"].ndim > 1 else h["reference"][:, None]
-        for j in range(pos.shape[1]):
-            name = labels[j] if labels else ""
-            axes[0].plot(t, pos[:, j] * 1e3, label=f"position {name}".strip())
-            axes[0].plot(t, ref[:, j] * 1e3, "--", label=f"reference {name}".strip())
-        axes[1].plot(t, h["duty"])
-        axes[2].plot(t, h["resistance"])
-        axes[3].plot(t, h["temperature"])
-    axes[0].set_ylabel("position [mm]")
-    axes[0].set_title(title, fontsize=9)
-    if t.size and pos.shape[1] <= 4:
-        axes[0].legend(fontsize=7, loc="upper left")
-    axes[1].set_ylabel("duty [-]")
-    axes[2].set_ylabel("R [ohm]")
-    axes[3].set_ylabel("T [degC]")
-    axes[3].set_xlabel("time [s]")
-    figure.tight_layout()
-    return figure
+def _grown(limits: tuple[float, float], low: float, high: float, floor: float) -> tuple[float, float]:
+    """``limits`` if [low, high] fits inside, else a range a quarter wider than needed."""
+    lo, hi = limits
+    if lo <= low and high <= hi:
+        return limits
+    span = max(high - low, floor)
+    return min(lo, low - 0.25 * span), max(hi, high + 0.25 * span)
 
 
-def to_rgb(figure) -> np.ndarray:
-    """The figure as an (H, W, 3) uint8 array."""
-    figure.canvas.draw()
-    rgba = np.asarray(figure.canvas.buffer_rgba())
-    return rgba[:, :, :3].copy()
+class EpisodePlot:
+    """Draws an :class:`EpisodeHistory` into 640 x 640 RGB frames."""
+
+    _AXES = (("position", "position [mm]", 1e3, 1.0), ("duty", "duty [-]", 1.0, 0.1),
+             ("resistance", "R [ohm]", 1.0, 0.5), ("temperature", "T [degC]", 1.0, 10.0))
+    """(field, label, scale, smallest span): one axis each, top to bottom."""
+
+    def __init__(self) -> None:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        self.figure = Figure(figsize=(WIDTH_IN, WIDTH_IN), dpi=DPI)
+        self.canvas = FigureCanvasAgg(self.figure)
+        self.axes = self.figure.subplots(len(self._AXES), 1, sharex=True)
+        for ax, (_, label, _, _) in zip(self.axes, self._AXES):
+            ax.set_ylabel(label)
+            ax.grid(True, alpha=0.3)
+        self.axes[-1].set_xlabel("time [s]")
+        self._lines: dict[str, list] = {}
+        self._key: tuple | None = None
+        self._limits: list[tuple[float, float]] = []
+        self._background = None
+
+    def frame(self, history: EpisodeHistory, title: str, labels: Sequence[str] | None = None) -> np.ndarray:
+        """The history as an (H, W, 3) uint8 array."""
+        h = history.arrays()
+        columns = {k: v.reshape(len(v), -1) for k, v in h.items() if k != "t"}
+        n = columns["position"].shape[1] if len(h["t"]) else 1
+        key = (title, n, tuple(labels or ()))
+        if key != self._key:
+            self._setup(title, n, labels)
+            self._key = key
+        t = h["t"]
+        limits = [_grown(self._limits[0], 0.0, float(t[-1]) if len(t) else 0.0, 1.0)]
+        for ax_fields, (_, _, scale, floor), old in zip(self._fields(), self._AXES, self._limits[1:]):
+            data = [columns[f] for f in ax_fields]
+            if len(t):
+                low = min(float(np.nanmin(d)) for d in data) * scale
+                high = max(float(np.nanmax(d)) for d in data) * scale
+                limits.append(_grown(old, low, high, floor) if np.isfinite(low + high) else old)
+            else:
+                limits.append(old)
+        for name, lines in self._lines.items():
+            for j, line in enumerate(lines):
+                line.set_data(t, columns[name][:, j] * self._scale(name))
+        if limits != self._limits or self._background is None:
+            self._limits = limits
+            self.axes[0].set_xlim(*limits[0])
+            for ax, lim in zip(self.axes, limits[1:]):
+                ax.set_ylim(*lim)
+            self._draw_background()
+        else:
+            self.canvas.restore_region(self._background)
+        for ax, ax_fields in zip(self.axes, self._fields()):
+            for name in ax_fields:
+                for line in self._lines[name]:
+                    ax.draw_artist(line)
+        return np.asarray(self.canvas.buffer_rgba())[:, :, :3].copy()
+
+    def _fields(self) -> tuple[tuple[str, ...], ...]:
+        return tuple(("position", "reference") if f == "position" else (f,) for f, _, _, _ in self._AXES)
+
+    def _scale(self, name: str) -> float:
+        return 1e3 if name in ("position", "reference") else 1.0
+
+    def _setup(self, title: str, n: int, labels: Sequence[str] | None) -> None:
+        for lines in self._lines.values():
+            for line in lines:
+                line.remove()
+        legend = self.axes[0].get_legend()
+        if legend is not None:
+            legend.remove()
+        self._lines = {}
+        names = ("position", "reference", "duty", "resistance", "temperature")
+        axis_of = {"position": 0, "reference": 0, "duty": 1, "resistance": 2, "temperature": 3}
+        for name in names:
+            ax = self.axes[axis_of[name]]
+            self._lines[name] = []
+            for j in range(n):
+                suffix = f" {labels[j]}" if labels else ""
+                # animated: drawn only by draw_artist over the cached background
+                (line,) = ax.plot([], [], "--" if name == "reference" else "-", color=f"C{j % 10}",
+                                  label=f"{name}{suffix}", animated=True, lw=1.2)
+                self._lines[name].append(line)
+        if n <= 4:
+            self.axes[0].legend(fontsize=7, loc="upper left")
+        self.axes[0].set_title(title, fontsize=9)
+        self._limits = [(0.0, 1.0), (0.0, 1.0), (0.0, 1.0), (0.0, 1.0), (0.0, 1.0)]
+        self._background = None
+        self.figure.tight_layout()
+
+    def _draw_background(self) -> None:
+        self.canvas.draw()
+        self._background = self.canvas.copy_from_bbox(self.figure.bbox)
+
+
+class Renderer:
+    """What a single env needs for ``render_mode``: the history, the plot, a human window."""
+
+    def __init__(self, render_mode: str | None, modes: Sequence[str]):
+        if render_mode is not None and render_mode not in modes:
+            raise ValueError(f"render_mode = {render_mode!r}: expected one of {list(modes)} or None")
+        self.render_mode = render_mode
+        self.history = EpisodeHistory()
+        self._plot: EpisodePlot | None = None
+        self._window: Any = None
+        self._last_human_t = -np.inf
+
+    def record(self, **values: Any) -> None:
+        """Record one sample (only while a render mode is set)."""
+        if self.render_mode is not None:
+            self.history.add(**values)
+
+    def render(self, title: str, labels: Sequence[str] | None = None) -> np.ndarray | None:
+        """The frame (``rgb_array``), or show it in a window (``human``, every 100 ms of sim time)."""
+        if self.render_mode is None:
+            import gymnasium as gym
+
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human' to make()")
+            return None
+        if self._plot is None:
+            self._plot = EpisodePlot()
+        if self.render_mode == "rgb_array":
+            return self._plot.frame(self.history, title, labels)
+        t = float(self.history.arrays()["t"][-1]) if len(self.history) else 0.0
+        if self._window is not None and t - self._last_human_t < 0.1:
+            return None
+        self._last_human_t = t
+        self._show(self._plot.frame(self.history, title, labels))
+        return None
+
+    def _show(self, frame: np.ndarray) -> None:
+        # Human mode is the one place pyplot is wanted: the user asked for a window.
+        import matplotlib.pyplot as plt
+
+        if self._window is None:
+            figure = plt.figure(figsize=(WIDTH_IN, WIDTH_IN), dpi=DPI)
+            ax = figure.add_axes((0, 0, 1, 1))
+            ax.set_axis_off()
+            self._window = ax.imshow(frame)
+        else:
+            self._window.set_data(frame)
+        plt.pause(0.001)
+
+    def reset(self) -> None:
+        self.history.clear()
+
+    def close(self) -> None:
+        if self._window is not None:
+            import matplotlib.pyplot as plt
+
+            plt.close(self._window.figure)
+            self._window = None
+        self._plot = None

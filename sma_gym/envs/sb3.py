@@ -5,22 +5,36 @@
 >>> venv = SB3VecEnv(gymnasium.make_vec("sma_gym:SMATracking-v0", num_envs=64,
 ...                                      vectorization_mode="vector_entry_point"))
 
-SB3 expects same-step autoreset, which is what :class:`~sma_gym.envs.vector.SMAVectorEnv`
-does; this adapter only converts the info dict of arrays into SB3's list of dicts and adds
-``terminal_observation`` and ``TimeLimit.truncated``.
+The adapter works with every autoreset mode (see :mod:`sma_gym.envs.vector`). SB3 wants
+the first observation of the next episode on the step an episode ends, with the last one
+in ``infos[i]["terminal_observation"]``: with ``SAME_STEP`` the vector env already does
+that; with ``NEXT_STEP`` (the default) or ``DISABLED`` the adapter resets the ended
+sub-envs at once through ``reset(options={"reset_mask": ...})``, so Gymnasium vector
+wrappers (``NormalizeObservation``, ...) may sit in between.
+
+It also does what SB3's ``Monitor`` does: at the end of an episode ``infos[i]["episode"]``
+holds ``{"r": return, "l": length, "t": seconds since the adapter was made}``, so SB3 logs
+``rollout/ep_rew_mean`` and ``evaluate_policy`` counts whole episodes without a warning
+(``env_is_wrapped(Monitor)`` is true); no ``VecMonitor`` is needed on top.
+``infos[i]`` carries the step's state (``position_m``, ``reference_m``, ...; of the ended
+episode's last step when it ends) and ``TimeLimit.truncated``.
 
 The sub-envs share one simulator, so ``indices`` are honoured where that is meaningful
-(``env_method("reset", indices=...)`` resets only those sub-envs) and refused with a clear
-error where it is not (a method or attribute of the shared env for a subset); attributes
-the simulator was built from (``control_period_s``, ...) cannot be set at all.
+(``env_method("reset", indices=...)`` resets only those sub-envs; ``get_attr`` of a
+per-sub-env attribute such as ``position_scale_m`` gives each sub-env its own value) and
+refused with a clear error where it is not (a method or attribute of the shared env for a
+subset); attributes the simulator was built from (``control_period_s``, ...) cannot be set
+at all.
 """
 
 from __future__ import annotations
 
+import time
 from typing import Any, Sequence
 
 import numpy as np
 from gymnasium.vector import AutoresetMode
+from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 _PER_STEP_INFO = (
@@ -37,23 +51,29 @@ _PER_STEP_INFO = (
 
 
 class SB3VecEnv(VecEnv):
-    """Wrap a same-step-autoreset Gymnasium vector env for stable-baselines3."""
+    """Wrap a Gymnasium vector env (any autoreset mode) for stable-baselines3, with episode stats."""
 
     def __init__(self, vector_env: Any):
-        unwrapped = getattr(vector_env, "unwrapped", vector_env)
-        if unwrapped.metadata.get("autoreset_mode") != AutoresetMode.SAME_STEP:
+        mode = vector_env.metadata.get("autoreset_mode")
+        if mode not in tuple(AutoresetMode):
             raise ValueError(
-                f"vector env autoreset_mode = {unwrapped.metadata.get('autoreset_mode')!r}: expected SAME_STEP "
+                f"vector env metadata['autoreset_mode'] = {mode!r}: expected an AutoresetMode "
                 "(use gymnasium.make_vec(..., vectorization_mode='vector_entry_point') on an sma_gym id)"
             )
         self.venv = vector_env
+        self.autoreset_mode = mode
         super().__init__(vector_env.num_envs, vector_env.single_observation_space, vector_env.single_action_space)
         self._actions: np.ndarray | None = None
         self._seed: int | None = None
+        self._t_start = time.time()
+        self._returns = np.zeros(self.num_envs)
+        self._lengths = np.zeros(self.num_envs, dtype=np.int64)
 
     def reset(self):
         obs, _ = self.venv.reset(seed=self._seed)
         self._seed = None
+        self._returns[:] = 0.0
+        self._lengths[:] = 0
         return obs
 
     def step_async(self, actions: np.ndarray) -> None:
@@ -61,17 +81,31 @@ class SB3VecEnv(VecEnv):
 
     def step_wait(self):
         obs, rewards, terminated, truncated, info = self.venv.step(self._actions)
-        dones = terminated | truncated
+        dones = np.asarray(terminated | truncated)
+        self._returns += rewards
+        self._lengths += 1
+        ended = np.flatnonzero(dones)
+        if ended.size and self.autoreset_mode == AutoresetMode.SAME_STEP:
+            terminal = info["final_obs"]
+            info = {**info, **{k: np.where(dones, v, info[k]) for k, v in info["final_info"].items() if k in _PER_STEP_INFO}}
+        elif ended.size:
+            terminal = obs
+            obs = obs.copy()
+            restarted, _ = self.venv.reset(options={"reset_mask": dones})
+            obs[ended] = restarted[ended]
         infos: list[dict[str, Any]] = [
             {k: info[k][i] for k in _PER_STEP_INFO if k in info} for i in range(self.num_envs)
         ]
-        if dones.any():
-            final = info["final_obs"]
-            for i in np.flatnonzero(dones):
-                infos[i]["terminal_observation"] = final[i]
-                infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
-                if "final_info" in info:
-                    infos[i]["episode_final"] = {k: v[i] for k, v in info["final_info"].items() if not k.startswith("_")}
+        for i in ended:
+            infos[i]["terminal_observation"] = terminal[i]
+            infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+            infos[i]["episode"] = {
+                "r": round(float(self._returns[i]), 6),
+                "l": int(self._lengths[i]),
+                "t": round(time.time() - self._t_start, 6),
+            }
+        self._returns[ended] = 0.0
+        self._lengths[ended] = 0
         return obs, rewards.astype(np.float32), dones, infos
 
     def seed(self, seed: int | None = None):
@@ -82,8 +116,13 @@ class SB3VecEnv(VecEnv):
         self.venv.close()
 
     def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
-        value = getattr(self.venv.unwrapped, attr_name)
-        return [value] * len(self._indices(indices))
+        """Entry k is the value of sub-env ``indices[k]`` (its own one for per-sub-env attributes)."""
+        env = self.venv.unwrapped
+        value = getattr(env, attr_name)
+        chosen = self._indices(indices)
+        if attr_name in getattr(env, "PER_ENV", ()):
+            return [value[i] for i in chosen]
+        return [value] * len(chosen)
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
         """Set an attribute of the shared env: only for all sub-envs, never one the simulator was built from."""
@@ -116,7 +155,8 @@ class SB3VecEnv(VecEnv):
             )
 
     def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
-        return [False] * len(self._indices(indices))
+        """True only for SB3's ``Monitor``, whose bookkeeping this adapter does."""
+        return [issubclass(Monitor, wrapper_class)] * len(self._indices(indices))
 
     def _indices(self, indices: Any) -> Sequence[int]:
         if indices is None:

@@ -14,7 +14,8 @@ All three are one class, :class:`SMAEnv`, configured by a :class:`Variant`:
   cannot cool the wire back down (§4.1).
 * ``SMARobust-v0``: the tracking task under the report's chapter-7 conditions (supply 5-15 V,
   natural or forced convection, 0.2-0.5 mm wire) plus parameter spread, drawn at every reset
-  from ``self.np_random`` and reported in ``info["condition"]``; kwargs fix any of them.
+  from ``self.np_random`` and reported in ``info`` (``condition_*`` keys) and in full in
+  ``env.unwrapped.condition``; kwargs fix any of them.
 
 Action: ``Box(-1, 1, (1,), float32)``, mapped affinely onto the allowed duty range,
 ``duty = lo + (a + 1) / 2 * (hi - lo)``; values outside [-1, 1] are clipped, NaN or inf raise
@@ -25,18 +26,42 @@ Observation, reward: see :mod:`sma_gym.envs.task`. ``terminated`` when the wire 
 ``overheat_limit_c`` (150 degC by default: Flexinol's trained memory degrades when held much
 hotter); episodes are truncated by ``max_episode_steps`` (registered: 1000 steps = 10 s).
 
-``info``: the true state (``position_m``, ``temperature_c``, ``martensite_fraction``,
-``stress_pa``), ``reference_m``, ``power_w`` and ``electrical_energy_j`` (since reset),
-``spring_force_n`` (what the report's force transducer reads), ``duty``,
-``resistance_valid``, ``time_s``; robustness: ``condition``.
+``info`` (the same keys at reset and at every step, each a plain ``float``, ``int`` or
+``bool``, so ``json.dumps(info)`` works and batched clients can stack it): the true state
+(``position_m``, ``position_measured_m``, ``temperature_c``, ``martensite_fraction``,
+``stress_pa``), ``reference_m``, ``reference_kind`` (0 step, 1 ramp, 2 sine, 3 random),
+``power_w`` and ``electrical_energy_j`` (since reset), ``spring_force_n`` (what the
+report's force transducer reads), ``duty``, ``resistance_valid``, ``time_s``; robustness
+adds the drawn condition as ``condition_supply_voltage_v``, ``condition_forced_convection``
+(bool), ``condition_wire_diameter_m``, ``condition_convection_scale``,
+``condition_transformation_shift_k``, ``condition_strain_scale``,
+``condition_preload_scale``, ``condition_resistivity_scale``. The full description of the
+episode's reference (kind, name, parameters, waypoints: keys depend on the kind) is
+``env.unwrapped.reference_description()``; the drawn condition as a dict is
+``env.unwrapped.condition``.
+
+Unknown kwargs raise ``ValueError``. ``env.spec.id`` is the module-qualified id
+(``"sma_gym:SMATracking-v0"``), which ``gymnasium.make`` resolves in any process, also one
+that has not imported ``sma_gym``.
 
 The constants that define the observation are attributes, so a controller can turn the
 features back into SI units: ``position_scale_m`` (the stroke), ``resistance_scale_ohm``
 (the cold resistance), ``duty_range`` and ``control_period_s``.
+
+Version history (ids stay ``-v0``: the dynamics and rewards are unchanged):
+
+* 0.2: ``info`` is flat and JSON-serialisable: the nested ``info["reference"]`` (reset) and
+  ``info["condition"]`` are gone (use ``reference_description()`` and ``condition``;
+  ``reference_kind`` and ``condition_*`` carry their numbers), values are Python scalars
+  instead of numpy ones; unknown kwargs raise ``ValueError`` instead of ``TypeError``;
+  ``env.spec.id`` carries the ``sma_gym:`` prefix; ``render()`` no longer switches
+  matplotlib's global backend.
+* 0.1: first release.
 """
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,16 +71,30 @@ from gymnasium import spaces
 
 from sma_gym._validation import require_action, require_choice, require_range
 from sma_gym.core import layout as L
+from sma_gym.envs import ImportableSpec, task
 from sma_gym.envs import references as refs
-from sma_gym.envs import task
-from sma_gym.envs.conditions import Conditions
-from sma_gym.envs.render import EpisodeHistory, draw, to_rgb
+from sma_gym.envs.conditions import Conditions, condition_info
+from sma_gym.envs.render import Renderer
 from sma_gym.model import ModelConfig, ModelSpec, load_model
 from sma_gym.simulator import PWM_MODES, Simulator
 
 DEFAULT_CONTROL_PERIOD_S = 10e-3
 DEFAULT_OVERHEAT_C = 150.0
 _ALL_COLUMNS = np.zeros(1, dtype=np.int64)
+
+STATE_INFO = (
+    ("position_m", L.S_X),
+    ("position_measured_m", L.S_POS_MEAS),
+    ("temperature_c", L.S_T),
+    ("martensite_fraction", L.S_XI),
+    ("stress_pa", L.S_SIGMA),
+    ("power_w", L.S_POWER),
+    ("electrical_energy_j", L.S_E_ELECTRIC),
+    ("spring_force_n", L.S_FORCE),
+    ("duty", L.S_DUTY_CMD),
+    ("time_s", L.S_TIME),
+)
+"""``info`` entries read straight from a simulator state row: (key, row)."""
 
 
 @dataclass(frozen=True)
@@ -89,7 +128,16 @@ class Settings:
     conditions: Conditions | None
 
     @classmethod
-    def from_kwargs(
+    def from_kwargs(cls, variant: Variant, **kwargs: Any) -> "Settings":
+        """Validate the env kwargs; an unknown name raises ``ValueError`` listing the known ones."""
+        known = tuple(inspect.signature(cls._from_known).parameters)[1:]
+        unknown = sorted(set(kwargs) - set(known))
+        if unknown:
+            raise ValueError(f"unknown env kwargs {unknown}: expected some of {list(known)}")
+        return cls._from_known(variant, **kwargs)
+
+    @classmethod
+    def _from_known(
         cls,
         variant: Variant,
         model: ModelSpec = None,
@@ -145,40 +193,44 @@ class Settings:
         )
 
 
-def reset_column(sim: Simulator, state: task.TaskState, i: int, rng: np.random.Generator, settings: Settings, options: dict | None) -> dict[str, Any]:
+def reset_column(sim: Simulator, state: task.TaskState, i: int, rng: np.random.Generator, settings: Settings, options: dict | None) -> dict[str, Any] | None:
     """Reset actuator i: draw its condition (robust) and reference from ``rng``.
 
     The one place a single env and the vector env reset an actuator, so that the same seed
-    gives the same episode in both. Returns the reset info entries.
+    gives the same episode in both. Returns the drawn condition (``None`` unless the
+    variant randomises conditions); the reference is ``state.references[i]``.
     """
     options = {} if options is None else options
     unknown = set(options) - {"reference"}
     if unknown:
         raise ValueError(f"reset options {sorted(unknown)}: expected only 'reference'")
-    info: dict[str, Any] = {}
+    condition = None
     if settings.conditions is not None:
         model, condition = settings.conditions.draw(settings.model, rng)
         sim.set_model(i, model)
-        info["condition"] = condition
     stroke = task.stroke_of(sim.params[i])
     ref = refs.resolve(options.get("reference"), rng, stroke, settings.reference)
     state.set_reference(i, ref)
     sim.reset(np.array([i]))
     state.reset_column(i, sim.params[i])
-    info["reference"] = ref.describe()
-    return info
+    return condition
 
 
-class SMAEnv(gym.Env):
-    """One SMA actuator tracking a position reference (see the module docstring)."""
+class SMAEnv(ImportableSpec, gym.Env):
+    """One SMA actuator tracking a position reference.
+
+    Spaces, reward, episode end, ``info`` keys, kwargs and version history: see the module
+    docstring. Besides the Gymnasium API: :meth:`reference_description`, ``condition``
+    (robustness: the drawn condition), ``position_scale_m``, ``resistance_scale_ohm``,
+    ``duty_range``, ``control_period_s``, :meth:`duty_for`, :meth:`action_for`.
+    """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 100}
 
     def __init__(self, variant: Variant = TRACKING, render_mode: str | None = None, **kwargs: Any):
         self.variant = variant
         self.settings = Settings.from_kwargs(variant, **kwargs)
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode = {render_mode!r}: expected one of {self.metadata['render_modes']} or None")
+        self._renderer = Renderer(render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=max(1, round(1.0 / self.settings.control_period_s)))
         self.sim = Simulator(
@@ -200,9 +252,9 @@ class SMAEnv(gym.Env):
         self._reward = np.zeros(1)
         self._term = np.zeros(1, dtype=np.bool_)
         self._ref = np.zeros(1)
-        self._condition: dict[str, Any] | None = None
-        self._history = EpisodeHistory()
-        self._figure = None
+        self.condition: dict[str, Any] | None = None
+        """The condition drawn at the last reset (robustness env), else ``None``."""
+        self._condition_info: dict[str, float | bool] = {}
 
     def _set_scales(self) -> None:
         params = self.sim.params[0]
@@ -222,15 +274,18 @@ class SMAEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         self.sim.rng = self.np_random
-        info = reset_column(self.sim, self.task, 0, self.np_random, self.settings, options)
-        self._condition = info.get("condition")
-        if self._condition is not None:
+        self.condition = reset_column(self.sim, self.task, 0, self.np_random, self.settings, options)
+        if self.condition is not None:
+            self._condition_info = condition_info(self.condition)
             self._set_scales()
         self._outputs()
-        self._history.clear()
-        if self.render_mode is not None:
-            self._record()
-        return self._obs[0].copy(), {**self._info(), **info}
+        self._renderer.reset()
+        self._record()
+        return self._obs[0].copy(), self._info()
+
+    def reference_description(self) -> dict[str, Any]:
+        """The episode's reference: ``kind``, ``name`` and its parameters (keys depend on the kind)."""
+        return self.task.references[0].describe()
 
     def step(self, action):
         a = float(require_action(action, 1)[0])
@@ -239,10 +294,9 @@ class SMAEnv(gym.Env):
         self.sim.step_unchecked(self._duty)
         self.task.last_duty[0] = duty
         self._outputs()
-        if self.render_mode is not None:
-            self._record()
-            if self.render_mode == "human":
-                self.render()
+        self._record()
+        if self.render_mode == "human":
+            self.render()
         return self._obs[0].copy(), float(self._reward[0]), bool(self._term[0]), False, self._info()
 
     def _outputs(self) -> None:
@@ -256,28 +310,18 @@ class SMAEnv(gym.Env):
 
     def _info(self) -> dict[str, Any]:
         st = self.sim.state[0]
-        info = {
-            "position_m": st[L.S_X],
-            "position_measured_m": st[L.S_POS_MEAS],
-            "reference_m": self._ref[0],
-            "temperature_c": st[L.S_T],
-            "martensite_fraction": st[L.S_XI],
-            "stress_pa": st[L.S_SIGMA],
-            "power_w": st[L.S_POWER],
-            "electrical_energy_j": st[L.S_E_ELECTRIC],
-            "spring_force_n": st[L.S_FORCE],
-            "duty": st[L.S_DUTY_CMD],
-            "resistance_valid": st[L.S_R_MEAS] == st[L.S_R_MEAS],
-            "time_s": st[L.S_TIME],
-        }
-        if self._condition is not None:
-            info["condition"] = dict(self._condition)
+        # Python scalars, not numpy ones: json.dumps and loggers refuse np.bool_.
+        info: dict[str, Any] = {key: float(st[row]) for key, row in STATE_INFO}
+        info["reference_m"] = float(self._ref[0])
+        info["reference_kind"] = int(self.task.kind[0])
+        info["resistance_valid"] = bool(st[L.S_R_MEAS] == st[L.S_R_MEAS])
+        info.update(self._condition_info)
         return info
 
     # ------------------------------------------------------------------------------------
     def _record(self) -> None:
         st = self.sim.state[0]
-        self._history.add(
+        self._renderer.record(
             t=st[L.S_TIME],
             position=st[L.S_X],
             reference=self._ref[0],
@@ -286,46 +330,9 @@ class SMAEnv(gym.Env):
             temperature=st[L.S_T],
         )
 
-    def render(self):
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human' to make()")
-            return None
-        title = f"{self.spec.id if self.spec else 'SMA'}: {self.settings.model.name}"
-        if self.render_mode == "rgb_array":
-            import matplotlib
-
-            matplotlib.use("Agg")
-            self._figure = draw(self._history, title, figure=self._figure)
-            return to_rgb(self._figure)
-        # human: refresh a window at most every 100 ms of simulated time
-        t = self.sim.state[0, L.S_TIME]
-        if self._figure is not None and t - getattr(self, "_last_human_t", -1.0) < 0.1:
-            return None
-        import matplotlib.pyplot as plt
-
-        self._last_human_t = t
-        self._figure = draw(self._history, title, figure=self._figure)
-        plt.pause(0.001)
-        return None
+    def render(self) -> np.ndarray | None:
+        """``rgb_array``: the episode so far as a (640, 640, 3) uint8 frame; ``human``: show it."""
+        return self._renderer.render(f"{self.spec.id if self.spec else 'SMA'}: {self.settings.model.name}")
 
     def close(self) -> None:
-        if self._figure is not None:
-            import matplotlib.pyplot as plt
-
-            plt.close(self._figure)
-            self._figure = None
-
-
-def tracking(**kwargs: Any) -> SMAEnv:
-    """Entry point of ``SMATracking-v0``."""
-    return SMAEnv(TRACKING, **kwargs)
-
-
-def self_sensing(**kwargs: Any) -> SMAEnv:
-    """Entry point of ``SMASelfSensing-v0``."""
-    return SMAEnv(SELF_SENSING, **kwargs)
-
-
-def robust(**kwargs: Any) -> SMAEnv:
-    """Entry point of ``SMARobust-v0``."""
-    return SMAEnv(ROBUST, **kwargs)
+        self._renderer.close()

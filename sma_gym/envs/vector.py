@@ -8,12 +8,38 @@ of N Python env steps.
 Semantics match N single envs exactly (tested): sub-env i is seeded with ``seed + i`` (as
 Gymnasium's ``SyncVectorEnv`` does) and draws its references, conditions and sensor noise
 from its own generator in the same order as a single env. Episodes are truncated after
-``max_episode_steps`` (from the registration). Autoreset mode: ``SAME_STEP``: when a
-sub-env ends, ``step`` returns the first observation of its next episode, and the last
-observation and info of the ended one are in ``info["final_obs"]`` / ``info["final_info"]``
-(with the masks ``info["_final_obs"]``, ``info["_final_info"]``), like
-``SyncVectorEnv(autoreset_mode=SAME_STEP)``. Stable-baselines3 can use it through
-:class:`sma_gym.envs.sb3.SB3VecEnv`.
+``max_episode_steps`` (from the registration).
+
+Autoreset: ``autoreset_mode`` (kwarg of ``make_vec``; an :class:`~gymnasium.vector.AutoresetMode`
+or its value string) works as in Gymnasium's ``SyncVectorEnv`` and is reported in
+``metadata["autoreset_mode"]``:
+
+* ``NEXT_STEP`` (default, as for every Gymnasium vector env, so Gymnasium's vector
+  observation wrappers work): the step on which a sub-env ends returns its last
+  observation; the next ``step`` ignores that sub-env's action, resets it and returns the
+  first observation of its new episode with reward 0 and ``terminated = truncated = False``.
+* ``SAME_STEP``: the ending step already returns the first observation of the next episode;
+  the last observation and info of the ended one are in ``info["final_obs"]`` /
+  ``info["final_info"]`` (masks ``info["_final_obs"]``, ``info["_final_info"]``).
+* ``DISABLED``: ended sub-envs are not reset; reset them with
+  ``reset(options={"reset_mask": mask})`` before the next ``step`` (stepping one raises).
+
+``reset(options={"reset_mask": mask})`` (a bool array, one entry per sub-env) resets only
+the masked sub-envs in every mode, as in Gymnasium. Stable-baselines3 can use any mode
+through :class:`sma_gym.envs.sb3.SB3VecEnv`.
+
+``info``: the single env's keys (see :mod:`sma_gym.envs.single`), each a fixed-shape array
+(num_envs,) with its ``_key`` mask, the same keys at reset and at every step.
+:meth:`SMAVectorEnv.reference_description` and ``conditions`` give the full descriptions.
+
+``render_mode="rgb_array"``: ``render()`` returns one frame per sub-env (a tuple, as
+``SyncVectorEnv`` does), each the single env's plot of that sub-env's current episode.
+
+Version history: 0.2: ``autoreset_mode`` (default ``NEXT_STEP``; 0.1 always ran
+``SAME_STEP``), ``reset_mask``, ``render_mode``; ``info`` without the object arrays
+``reference`` (reset) and ``condition`` (use ``reference_description()``, ``conditions``,
+``reference_kind`` and the ``condition_*`` arrays); ``spec.id`` carries the ``sma_gym:``
+prefix.
 """
 
 from __future__ import annotations
@@ -27,45 +53,67 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from sma_gym._validation import require_int_range
+from sma_gym._validation import require_choice, require_int_range
 from sma_gym.core import layout as L
-from sma_gym.envs import task
-from sma_gym.envs.single import ROBUST, SELF_SENSING, TRACKING, Settings, Variant, reset_column
+from sma_gym.envs import ImportableSpec, task
+from sma_gym.envs.conditions import CONDITION_INFO_KEYS, condition_info
+from sma_gym.envs.render import EpisodeHistory, EpisodePlot
+from sma_gym.envs.single import STATE_INFO, TRACKING, Settings, Variant, reset_column
 from sma_gym.simulator import Simulator
 
-_INFO_ROWS = (
-    ("position_m", L.S_X),
-    ("position_measured_m", L.S_POS_MEAS),
-    ("temperature_c", L.S_T),
-    ("martensite_fraction", L.S_XI),
-    ("stress_pa", L.S_SIGMA),
-    ("power_w", L.S_POWER),
-    ("electrical_energy_j", L.S_E_ELECTRIC),
-    ("spring_force_n", L.S_FORCE),
-    ("duty", L.S_DUTY_CMD),
-    ("time_s", L.S_TIME),
-)
+_MODES = {mode.value: mode for mode in AutoresetMode}
 
 
-class SMAVectorEnv(VectorEnv):
-    """``num_envs`` single-actuator envs of one variant, simulated as one batch."""
+class SMAVectorEnv(ImportableSpec, VectorEnv):
+    """``num_envs`` single-actuator envs of one variant, simulated as one batch.
 
-    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.SAME_STEP}
+    Args:
+        num_envs: number of sub-envs (1 to 2**20).
+        variant: which single-actuator env (:data:`~sma_gym.envs.single.TRACKING`, ...).
+        max_episode_steps: truncate episodes after this many steps (``None``: never).
+        autoreset_mode: ``NEXT_STEP`` (default), ``SAME_STEP`` or ``DISABLED`` (see the module).
+        render_mode: ``None`` or ``"rgb_array"``.
+        **kwargs: the single env's kwargs (model, reference, ...); unknown names raise ``ValueError``.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 100, "autoreset_mode": AutoresetMode.NEXT_STEP}
 
     FIXED_AT_MAKE = (
         "control_period_s", "settings", "sim", "task", "variant", "num_envs", "feature_names", "duty_range",
-        "observation_space", "action_space", "single_observation_space", "single_action_space",
+        "observation_space", "action_space", "single_observation_space", "single_action_space", "autoreset_mode",
     )
     """Attributes the simulator or the spaces were built from: changing one afterwards would
     leave the simulator stepping with the old value, so adapters refuse to set them."""
 
-    def __init__(self, num_envs: int, variant: Variant = TRACKING, max_episode_steps: int | None = None, **kwargs: Any):
+    PER_ENV = ("position_scale_m", "resistance_scale_ohm", "conditions")
+    """Attributes that hold one value per sub-env (sequence of length ``num_envs``):
+    adapters hand sub-env i its own entry."""
+
+    def __init__(
+        self,
+        num_envs: int,
+        variant: Variant = TRACKING,
+        max_episode_steps: int | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        render_mode: str | None = None,
+        **kwargs: Any,
+    ):
         self.num_envs = require_int_range("num_envs", num_envs, 1, 1 << 20)
         if max_episode_steps is not None:
             max_episode_steps = require_int_range("max_episode_steps", max_episode_steps, 1, 1 << 40)
         self.max_episode_steps = max_episode_steps
+        mode = autoreset_mode.value if isinstance(autoreset_mode, AutoresetMode) else autoreset_mode
+        self.autoreset_mode = _MODES[require_choice("autoreset_mode", mode, tuple(_MODES))]
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode = {render_mode!r}: expected one of {self.metadata['render_modes']} or None")
+        self.render_mode = render_mode
         self.variant = variant
         self.settings = Settings.from_kwargs(variant, **kwargs)
+        self.metadata = dict(
+            self.metadata,
+            autoreset_mode=self.autoreset_mode,
+            render_fps=max(1, round(1.0 / self.settings.control_period_s)),
+        )
         self.sim = Simulator(
             [self.settings.model] * self.num_envs,
             control_period_s=self.settings.control_period_s,
@@ -92,8 +140,15 @@ class SMAVectorEnv(VectorEnv):
         self._steps = np.zeros(n, dtype=np.int64)
         self._duty = np.zeros((1, n))
         self._rngs: list[np.random.Generator | None] = [None] * n
-        self._conditions: list[dict | None] = [None] * n
+        self.conditions: list[dict[str, Any] | None] = [None] * n
+        """The condition each sub-env drew at its last reset (robustness env), else ``None``."""
+        self._condition_info = {key: np.zeros(n, dtype=bool if "forced" in key else float) for key in CONDITION_INFO_KEYS}
         self._all_true = np.ones(n, dtype=bool)
+        # NEXT_STEP / DISABLED: sub-envs whose episode ended on the last step.
+        self._ended = np.zeros(n, dtype=bool)
+        # rgb_array: each sub-env's episode so far, drawn one after the other by one plot.
+        self._histories = [EpisodeHistory() for _ in range(n)] if render_mode is not None else []
+        self._plot: EpisodePlot | None = None
 
     @property
     def position_scale_m(self) -> np.ndarray:
@@ -108,7 +163,14 @@ class SMAVectorEnv(VectorEnv):
         p = self.sim.params
         return p[:, L.P_RHO_M] * p[:, L.P_LENGTH] / p[:, L.P_AREA]
 
-    def reset(self, *, seed: int | list[int] | None = None, options: dict | None = None):
+    def reset(self, *, seed: int | Sequence[int | None] | None = None, options: dict | None = None):
+        """Reset all sub-envs, or those in ``options["reset_mask"]``; sub-env i gets ``seed + i``."""
+        options = dict(options or {})
+        mask = options.pop("reset_mask", None)
+        if mask is None:
+            mask = self._all_true
+        elif not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (self.num_envs,) and mask.any()):
+            raise ValueError(f"options['reset_mask'] = {mask!r}: expected a bool numpy array of shape ({self.num_envs},) with a True entry")
         if seed is None:
             seeds: list[int | None] = [None] * self.num_envs
         elif isinstance(seed, (int, np.integer)):
@@ -117,38 +179,46 @@ class SMAVectorEnv(VectorEnv):
             seeds = list(seed)
             if len(seeds) != self.num_envs:
                 raise ValueError(f"seed has {len(seeds)} entries: expected {self.num_envs} (one per env)")
-        if seed is not None:
-            self._np_random, self._np_random_seed = seeding.np_random(seeds[0])
-        infos: list[dict] = []
-        for i in range(self.num_envs):
-            if seeds[i] is not None or self._rngs[i] is None:
+        first = int(np.flatnonzero(mask)[0])
+        if seeds[first] is not None:
+            self._np_random, self._np_random_seed = seeding.np_random(seeds[first])
+        for i in np.flatnonzero(mask):
+            if seeds[i] is not None:
                 self._rngs[i], _ = seeding.np_random(seeds[i])
-            infos.append(reset_column(self.sim, self.task, i, self._rngs[i], self.settings, options))
-            self._conditions[i] = infos[-1].get("condition")
-        self._steps[:] = 0
-        self._outputs(self._columns)
-        info = self._info()
-        info["reference"] = np.array([x["reference"] for x in infos], dtype=object)
-        info["_reference"] = self._all_true.copy()
-        return self._obs.copy(), info
+        self._reset_columns(np.flatnonzero(mask), options)
+        return self._obs.copy(), self._info()
 
     def reset_envs(self, indices: Sequence[int], options: dict | None = None) -> list[tuple[np.ndarray, dict[str, Any]]]:
         """Reset only the sub-envs ``indices`` (each with its own generator); the others go on.
 
-        Returns ``(observation, info)`` per index, in the order given.
+        Returns ``(observation, info)`` per index, in the order given (info: that sub-env's
+        entries as Python scalars).
         """
-        columns = np.asarray(sorted(set(int(i) for i in indices)), dtype=np.int64)
-        described = {}
+        self._reset_columns(np.asarray(sorted({int(i) for i in indices}), dtype=np.int64), options)
+        info = self._info()
+        return [(self._obs[i].copy(), {k: v[i].item() for k, v in info.items() if not k.startswith("_")}) for i in indices]
+
+    def reference_description(self) -> list[dict[str, Any]]:
+        """Each sub-env's current reference (kind, name, parameters; keys depend on the kind)."""
+        return [ref.describe() for ref in self.task.references]
+
+    def _reset_columns(self, columns: np.ndarray, options: dict | None) -> None:
+        """Start a new episode in ``columns``, each drawing from its own generator."""
         for i in columns:
             if self._rngs[i] is None:
                 self._rngs[i], _ = seeding.np_random(None)
-            info = reset_column(self.sim, self.task, int(i), self._rngs[i], self.settings, options)
-            self._conditions[i] = info.get("condition")
-            described[int(i)] = info["reference"]
+            condition = reset_column(self.sim, self.task, int(i), self._rngs[i], self.settings, options)
+            self.conditions[i] = condition
+            if condition is not None:
+                for key, value in condition_info(condition).items():
+                    self._condition_info[key][i] = value
             self._steps[i] = 0
+            if self._histories:
+                self._histories[i].clear()
+        self._ended[columns] = False
         if columns.size:
-            self._outputs(columns)
-        return [(self._obs[i].copy(), {"reference": described[int(i)]}) for i in indices]
+            self._outputs(columns.astype(np.int64))
+            self._record(columns)
 
     def step(self, actions):
         a = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
@@ -157,17 +227,30 @@ class SMAVectorEnv(VectorEnv):
         if not np.isfinite(a).all():
             bad = int(np.flatnonzero(~np.isfinite(a[:, 0]))[0])
             raise ValueError(f"actions[{bad}] = {a[bad, 0]!r}: expected finite values in [-1, 1]")
+        restart = self._ended.copy()
+        if restart.any() and self.autoreset_mode == AutoresetMode.DISABLED:
+            raise ValueError(
+                f"sub-envs {np.flatnonzero(restart).tolist()} ended and autoreset_mode = DISABLED: expected "
+                "reset(options={'reset_mask': mask}) for them before the next step"
+            )
         duty = self._duty_lo + (np.clip(a[:, 0], -1.0, 1.0) + 1.0) * self._duty_half_range
         self._duty[0] = duty
         noise = None
         if self.sim.has_noise:
-            noise = np.empty((1, 4, self.num_envs))
-            for i, rng in enumerate(self._rngs):
-                noise[0, :, i] = rng.standard_normal((1, 4, 1))[0, :, 0]
+            # Sub-envs restarting this step draw no noise: a single env draws none on reset.
+            noise = np.zeros((1, 4, self.num_envs))
+            for i in np.flatnonzero(~restart):
+                noise[0, :, i] = self._rngs[i].standard_normal((1, 4, 1))[0, :, 0]
         self.sim.step_unchecked(self._duty, noise)
         self.task.last_duty[:] = duty
         self._outputs(self._columns)
         self._steps += 1
+        if restart.any():
+            # NEXT_STEP: the column was stepped with the batch; resetting it now discards that.
+            self._reset_columns(np.flatnonzero(restart), None)
+            self._reward[restart] = 0.0
+            self._term[restart] = False
+        self._record(np.flatnonzero(~restart))
         terminated = self._term.copy()
         if self.max_episode_steps is not None:
             truncated = (self._steps >= self.max_episode_steps) & ~terminated
@@ -176,22 +259,22 @@ class SMAVectorEnv(VectorEnv):
         reward = self._reward.copy()
         info = self._info()
         done = terminated | truncated
-        if done.any():
-            ended = np.flatnonzero(done)
-            final_obs = np.full(self.num_envs, None, dtype=object)
-            for i in ended:
-                final_obs[i] = self._obs[i].copy()
-            final_info = {k: v.copy() for k, v in info.items()}
-            final_info.update({f"_{k}": done.copy() for k in info if not k.startswith("_")})
-            for i in ended:
-                self._conditions[i] = reset_column(self.sim, self.task, i, self._rngs[i], self.settings, None).get("condition")
-                self._steps[i] = 0
-            self._outputs(ended.astype(np.int64))
-            info = self._info()
-            info["final_obs"] = final_obs
-            info["_final_obs"] = done.copy()
-            info["final_info"] = final_info
-            info["_final_info"] = done.copy()
+        if not done.any():
+            return self._obs.copy(), reward, terminated, truncated, info
+        if self.autoreset_mode != AutoresetMode.SAME_STEP:
+            self._ended = done
+            return self._obs.copy(), reward, terminated, truncated, info
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        for i in np.flatnonzero(done):
+            final_obs[i] = self._obs[i].copy()
+        final_info = {k: v.copy() for k, v in info.items()}
+        final_info.update({f"_{k}": done.copy() for k in info if not k.startswith("_")})
+        self._reset_columns(np.flatnonzero(done), None)
+        info = self._info()
+        info["final_obs"] = final_obs
+        info["_final_obs"] = done.copy()
+        info["final_info"] = final_info
+        info["_final_info"] = done.copy()
         return self._obs.copy(), reward, terminated, truncated, info
 
     def _outputs(self, columns: np.ndarray) -> None:
@@ -214,29 +297,40 @@ class SMAVectorEnv(VectorEnv):
 
     def _info(self) -> dict[str, Any]:
         st = self.sim.state
-        info: dict[str, Any] = {name: st[:, row].copy() for name, row in _INFO_ROWS}
+        info: dict[str, Any] = {key: st[:, row].copy() for key, row in STATE_INFO}
         info["reference_m"] = self._ref.copy()
+        info["reference_kind"] = self.task.kind.copy()
         info["resistance_valid"] = ~np.isnan(st[:, L.S_R_MEAS])
         if self.variant.randomised:
-            info["condition"] = np.array(self._conditions, dtype=object)
+            info.update({key: value.copy() for key, value in self._condition_info.items()})
         for key in list(info):
             info["_" + key] = self._all_true
         return info
 
+    def _record(self, columns: np.ndarray) -> None:
+        if not self._histories:
+            return
+        st = self.sim.state
+        for i in columns:
+            self._histories[i].add(
+                t=st[i, L.S_TIME],
+                position=st[i, L.S_X],
+                reference=self._ref[i],
+                duty=st[i, L.S_DUTY_CMD],
+                resistance=self.task.held[i, 0],
+                temperature=st[i, L.S_T],
+            )
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """One (H, W, 3) uint8 frame per sub-env (``render_mode="rgb_array"``)."""
+        if self.render_mode is None:
+            return super().render()
+        if self._plot is None:
+            self._plot = EpisodePlot()
+        name = self.spec.id if self.spec else "SMA"
+        return tuple(
+            self._plot.frame(h, f"{name} [{i}]: {self.settings.model.name}") for i, h in enumerate(self._histories)
+        )
+
     def close_extras(self, **kwargs: Any) -> None:
-        pass
-
-
-def tracking(num_envs: int, **kwargs: Any) -> SMAVectorEnv:
-    """Vector entry point of ``SMATracking-v0``."""
-    return SMAVectorEnv(num_envs, TRACKING, **kwargs)
-
-
-def self_sensing(num_envs: int, **kwargs: Any) -> SMAVectorEnv:
-    """Vector entry point of ``SMASelfSensing-v0``."""
-    return SMAVectorEnv(num_envs, SELF_SENSING, **kwargs)
-
-
-def robust(num_envs: int, **kwargs: Any) -> SMAVectorEnv:
-    """Vector entry point of ``SMARobust-v0``."""
-    return SMAVectorEnv(num_envs, ROBUST, **kwargs)
+        self._plot = None

@@ -1,0 +1,322 @@
+"""Issue 15: the envs fit the tools RL users already run (Gymnasium vector wrappers, batched
+and JSON info consumers, SB3 episode logging, the registry, video)."""
+
+import json
+import subprocess
+import sys
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode
+
+import sma_gym
+from sma_gym.envs.sb3 import SB3VecEnv
+
+SINGLE_ACTUATOR_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0")
+NOISY = {"position_noise_std_m": 1e-5, "resistance_noise_std_ohm": 0.01}
+
+
+def native(env_id="SMATracking-v0", n=3, **kwargs):
+    return gym.make_vec("sma_gym:" + env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+
+
+def run_fresh(code: str) -> str:
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    return out.stdout
+
+
+# --- item 3: autoreset modes, vector observation wrappers, render_mode ---------------------------
+
+
+def test_native_vector_env_defaults_to_gymnasiums_next_step_autoreset():
+    assert native().metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    assert gym.make_vec("CartPole-v1", num_envs=2, vectorization_mode="sync").metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    with pytest.raises(ValueError, match="autoreset_mode"):
+        native(autoreset_mode="Sometimes")
+
+
+@pytest.mark.parametrize("env_id", ["SMASelfSensing-v0", "SMARobust-v0"])
+@pytest.mark.parametrize("mode", list(AutoresetMode))
+def test_every_autoreset_mode_matches_gymnasiums_sync_vector_env(env_id, mode):
+    n, steps = 3, 12
+    kwargs = NOISY if env_id == "SMASelfSensing-v0" else {}
+    ours = native(env_id, n, max_episode_steps=steps, autoreset_mode=mode, **kwargs)
+    theirs = gym.make_vec(
+        "sma_gym:" + env_id, num_envs=n, vectorization_mode="sync", max_episode_steps=steps,
+        vector_kwargs={"autoreset_mode": mode}, **kwargs,
+    )
+    assert ours.metadata["autoreset_mode"] == theirs.metadata["autoreset_mode"] == mode
+    a, _ = ours.reset(seed=3)
+    b, _ = theirs.reset(seed=3)
+    assert np.array_equal(a, b)
+    rng = np.random.default_rng(1)
+    ended = 0
+    for k in range(3 * steps + 2):
+        actions = rng.uniform(-1, 1, size=(n, 1)).astype(np.float32)
+        ra, rb = ours.step(actions), theirs.step(actions)
+        for x, y in zip(ra[:4], rb[:4]):
+            assert np.array_equal(x, y), (mode, k)
+        assert np.array_equal(ra[4]["position_m"], rb[4]["position_m"])
+        done = ra[2] | ra[3]
+        if mode == AutoresetMode.SAME_STEP and done.any():
+            assert np.array_equal(ra[4]["_final_obs"], rb[4]["_final_obs"])
+            for i in np.flatnonzero(done):
+                assert np.array_equal(ra[4]["final_obs"][i], rb[4]["final_obs"][i])
+        if mode == AutoresetMode.DISABLED and done.any():
+            with pytest.raises(ValueError, match="reset_mask"):
+                ours.step(actions)
+            a, _ = ours.reset(options={"reset_mask": done})
+            b, _ = theirs.reset(options={"reset_mask": done})
+            assert np.array_equal(a, b)
+        ended += int(done.sum())
+    assert ended >= 2 * n
+
+
+def test_gymnasiums_vector_observation_wrappers_run_on_the_native_vector_env():
+    from gymnasium.wrappers.vector import (
+        DtypeObservation,
+        FlattenObservation,
+        NormalizeObservation,
+        TransformObservation,
+    )
+
+    venv = native(n=4, max_episode_steps=20)
+    venv = NormalizeObservation(venv)
+    venv = FlattenObservation(venv)
+    venv = DtypeObservation(venv, np.float64)
+    venv = TransformObservation(venv, lambda obs: np.clip(obs, -5.0, 5.0), venv.observation_space)
+    obs, _ = venv.reset(seed=0)
+    assert obs.dtype == np.float64 and obs.shape == venv.observation_space.shape
+    for _ in range(45):
+        obs, *_ = venv.step(venv.action_space.sample())
+        assert np.all(np.isfinite(obs)) and obs.dtype == np.float64
+    venv.close()
+
+
+def test_vector_entry_point_accepts_render_mode_and_renders_each_sub_env():
+    venv = native(n=2, render_mode="rgb_array")
+    assert venv.render_mode == "rgb_array"
+    venv.reset(seed=0)
+    first = venv.render()
+    for _ in range(30):
+        venv.step(np.ones((2, 1), np.float32))
+    later = venv.render()
+    assert len(later) == 2 and all(f.shape == (640, 640, 3) and f.dtype == np.uint8 for f in later)
+    assert not np.array_equal(first[0], later[0])
+    with pytest.raises(ValueError, match="render_mode"):
+        native(render_mode="human")
+
+
+# --- item 4: info is flat, fixed-shape and JSON-serialisable ------------------------------------------
+
+
+@pytest.mark.parametrize("env_id", SINGLE_ACTUATOR_IDS)
+def test_single_env_info_is_flat_json_with_the_same_keys_at_reset_and_step(env_id):
+    env = gym.make("sma_gym:" + env_id)
+    _, reset_info = env.reset(seed=0)
+    _, _, _, _, step_info = env.step(env.action_space.sample())
+    for info in (reset_info, step_info):
+        json.dumps(info)
+        assert {type(v) for v in info.values()} <= {float, int, bool}, info
+    assert set(reset_info) == set(step_info)
+    described = env.unwrapped.reference_description()
+    assert described["kind"] in ("step", "ramp", "sine", "random")
+    assert reset_info["reference_kind"] == ("step", "ramp", "sine", "random").index(described["kind"])
+
+
+def test_robust_env_reports_its_condition_as_fixed_numeric_keys():
+    env = gym.make("sma_gym:SMARobust-v0")
+    keys = None
+    for seed in range(6):
+        _, info = env.reset(seed=seed)
+        condition = env.unwrapped.condition
+        assert info["condition_supply_voltage_v"] == condition["supply_voltage_v"]
+        assert info["condition_forced_convection"] == (condition["convection"] == "forced")
+        found = {k for k in info if k.startswith("condition_")}
+        assert keys is None or found == keys
+        keys = found
+    assert len(keys) == 8
+
+
+@pytest.mark.parametrize("env_id", SINGLE_ACTUATOR_IDS)
+def test_vector_env_info_holds_fixed_shape_numeric_arrays_only(env_id):
+    n = 4
+    venv = native(env_id, n, reference=("random", "sine"))
+    _, reset_info = venv.reset(seed=0)
+    _, _, _, _, step_info = venv.step(np.zeros((n, 1), np.float32))
+    for info in (reset_info, step_info):
+        for key, value in info.items():
+            assert isinstance(value, np.ndarray) and value.shape == (n,) and value.dtype != object, key
+    assert set(reset_info) == set(step_info)
+    assert [d["kind"] for d in venv.unwrapped.reference_description()] == [
+        ("step", "ramp", "sine", "random")[k] for k in reset_info["reference_kind"]
+    ]
+
+
+def test_multiplexed_info_has_fixed_shape_entries_and_no_nested_descriptions():
+    env = gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=3)
+    _, reset_info = env.reset(seed=0)
+    _, _, _, _, step_info = env.step(env.action_space.sample())
+    assert set(reset_info) == set(step_info)
+    for info in (reset_info, step_info):
+        for key, value in info.items():
+            assert isinstance(value, float) or (isinstance(value, np.ndarray) and value.shape == (3,) and value.dtype != object), key
+        json.dumps({k: np.asarray(v).tolist() for k, v in info.items()})
+    assert len(env.unwrapped.reference_description()) == 3
+
+
+def test_torchrl_batched_gym_env_passes_its_spec_check():
+    torchrl_envs = pytest.importorskip("torchrl.envs")
+    from torchrl.envs.utils import check_env_specs
+
+    env = torchrl_envs.GymEnv("sma_gym:SMATracking-v0", num_envs=4)
+    check_env_specs(env)
+
+
+# --- item 5: the SB3 adapter reports episodes -----------------------------------------------------------
+
+
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+def test_sb3_adapter_puts_monitor_episode_stats_in_infos(mode):
+    steps, n = 15, 3
+    venv = SB3VecEnv(native(n=n, max_episode_steps=steps, autoreset_mode=mode))
+    venv.seed(0)
+    obs = venv.reset()
+    returns = np.zeros(n)
+    episodes = 0
+    for k in range(2 * steps):
+        obs, rewards, dones, infos = venv.step(np.full((n, 1), 0.3, np.float32))
+        returns += rewards
+        for i in np.flatnonzero(dones):
+            assert infos[i]["episode"]["l"] == steps
+            assert infos[i]["episode"]["r"] == pytest.approx(returns[i], abs=1e-4)
+            assert infos[i]["terminal_observation"].shape == obs.shape[1:]
+            returns[i] = 0.0
+            episodes += 1
+        assert all("episode" not in infos[i] for i in np.flatnonzero(~dones))
+    assert episodes == 2 * n
+
+
+def test_sb3_adapter_gives_the_same_run_whatever_the_autoreset_mode():
+    runs = []
+    for mode in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+        venv = SB3VecEnv(native("SMASelfSensing-v0", n=2, max_episode_steps=7, autoreset_mode=mode, **NOISY))
+        venv.seed(4)
+        trace = [venv.reset()]
+        rng = np.random.default_rng(0)
+        for _ in range(20):
+            obs, rewards, dones, infos = venv.step(rng.uniform(-1, 1, (2, 1)).astype(np.float32))
+            trace += [obs, rewards, dones] + [infos[i]["terminal_observation"] for i in np.flatnonzero(dones)]
+        runs.append(trace)
+    assert all(np.array_equal(x, y) for x, y in zip(*runs)) and len(runs[0]) == len(runs[1])
+
+
+def test_sb3_logs_ep_rew_mean_and_evaluate_policy_does_not_warn(tmp_path):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.evaluation import evaluate_policy
+    from stable_baselines3.common.logger import configure
+
+    venv = SB3VecEnv(native(n=4, max_episode_steps=16))
+    model = PPO("MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")
+    model.set_logger(configure(str(tmp_path), ["csv"]))
+    model.learn(total_timesteps=128)
+    assert len(model.ep_info_buffer) >= 4
+    assert "rollout/ep_rew_mean" in (tmp_path / "progress.csv").read_text().splitlines()[0].split(",")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mean, _ = evaluate_policy(model, venv, n_eval_episodes=4)
+    assert np.isfinite(mean)
+
+
+def test_sb3_get_attr_gives_each_sub_env_its_own_value():
+    venv = SB3VecEnv(native("SMARobust-v0", n=3))
+    venv.seed(0)
+    venv.reset()
+    scales = venv.venv.unwrapped.resistance_scale_ohm
+    assert len(set(scales.tolist())) == 3
+    assert venv.get_attr("resistance_scale_ohm") == list(scales)
+    assert venv.get_attr("resistance_scale_ohm", indices=[2])[0] == scales[2]
+    assert venv.get_attr("conditions")[1] == venv.venv.unwrapped.conditions[1]
+    assert venv.get_attr("control_period_s") == [0.01] * 3
+
+
+# --- item 8: contract slips ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: gym.make("sma_gym:SMATracking-v0", colour="red"),
+        lambda: gym.make("sma_gym:SMAMultiplexed-v0", colour="red"),
+        lambda: native(colour="red"),
+    ],
+)
+def test_unknown_kwargs_raise_value_error_naming_them(make):
+    with pytest.raises(ValueError, match="colour"):
+        make()
+
+
+def test_pprint_registry_lists_the_four_ids_in_one_group():
+    text = gym.pprint_registry(disable_print=True)
+    groups = [block for block in text.split("=====") if any(i in block for i in sma_gym.ENV_IDS)]
+    assert len(groups) == 1 and all(i in groups[0] for i in sma_gym.ENV_IDS)
+
+
+def test_spec_id_is_made_again_in_a_fresh_process_without_importing_sma_gym():
+    ids = []
+    for env_id in sma_gym.ENV_IDS:
+        env = gym.make(env_id)  # registered by `import sma_gym`, no prefix given
+        assert env.spec.id == "sma_gym:" + env_id
+        ids.append(env.spec.id)
+    vector_id = native().spec.id
+    code = (
+        "import sys, gymnasium as gym\n"
+        f"for i in {ids!r}:\n"
+        "    env = gym.make(i); env.reset(seed=0); env.step(env.action_space.sample())\n"
+        "    assert env.spec.id == i, env.spec.id\n"
+        f"v = gym.make_vec({vector_id!r}, num_envs=2, vectorization_mode='vector_entry_point')\n"
+        f"assert v.spec.id == {vector_id!r}\n"
+        "print('ok')\n"
+    )
+    assert run_fresh(code).strip() == "ok"
+
+
+# --- item 2: fast rgb_array rendering without global side effects ----------------------------------------
+
+
+def test_rgb_array_render_leaves_the_global_backend_and_pyplot_alone():
+    code = (
+        "import matplotlib\n"
+        "matplotlib.use('svg')\n"
+        "import matplotlib.pyplot as plt, numpy as np, gymnasium as gym\n"
+        "for i, kw in (('SMATracking-v0', {}), ('SMAMultiplexed-v0', {'n_actuators': 3})):\n"
+        "    env = gym.make('sma_gym:' + i, render_mode='rgb_array', **kw)\n"
+        "    env.reset(seed=0)\n"
+        "    frames = [env.render()]\n"
+        "    for k in range(300):\n"
+        "        env.step(np.ones(env.action_space.shape, np.float32))\n"
+        "        if k % 100 == 99:\n"
+        "            frames.append(env.render())\n"
+        "    assert all(f.shape == (640, 640, 3) and f.dtype == np.uint8 for f in frames)\n"
+        "    assert all(not np.array_equal(a, b) for a, b in zip(frames, frames[1:]))\n"
+        "    assert frames[-1].std() > 10\n"
+        "    env.close()\n"
+        "assert matplotlib.get_backend() == 'svg', matplotlib.get_backend()\n"
+        "assert plt.get_fignums() == []\n"
+        "print('ok')\n"
+    )
+    assert run_fresh(code).strip() == "ok"
+
+
+def test_blitted_frame_equals_a_fully_redrawn_one():
+    env = gym.make("sma_gym:SMATracking-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    for _ in range(200):
+        env.step(np.array([0.2], np.float32))
+        env.render()  # mostly blitted frames
+    blitted = env.render()
+    env.unwrapped._renderer._plot._background = None  # forces a full redraw
+    assert np.array_equal(blitted, env.render())
