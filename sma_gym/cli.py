@@ -65,6 +65,8 @@ def _diagnose(args: argparse.Namespace) -> int:
     from sma_gym.effects import EFFECTS
     from sma_gym.model import load_model
 
+    if not 1 <= args.max_rounds <= len(EFFECTS):
+        raise ValueError(f"--max-rounds {args.max_rounds}: expected an integer from 1 to {len(EFFECTS)}")
     out = check_output_folder(args.out)
     try:
         fit = load_traces(args.files, DIAGNOSIS_MIN_ROWS)
@@ -82,14 +84,15 @@ def _diagnose(args: argparse.Namespace) -> int:
         print(f"sma-gym diagnose: {message}", file=sys.stderr, flush=True)
 
     with locked_folder(out):
-        result = diagnose(fit, held, nominal, effects, progress=progress)
+        result = diagnose(fit, held, nominal, effects, progress=progress, max_rounds=args.max_rounds)
         paths = write_outputs(result, out, fit, held, nominal)
     if args.json:
         from sma_gym.diagnosis.workflow import _json_default
 
         print(json.dumps(result.as_dict(), default=_json_default))
     else:
-        effect = result.effect if isinstance(result.effect, str) or result.effect is None else " or ".join(result.effect)
+        joiner = " + " if result.verdict == "effects" else " or "
+        effect = result.effect if isinstance(result.effect, str) or result.effect is None else joiner.join(result.effect)
         print(f"verdict: {result.verdict}" + (f" ({effect})" if effect else ""))
         for data in ("fit", "heldout"):
             for output, before in result.gap_before[data].items():
@@ -145,6 +148,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="folder for the report, plots, JSON and corrected_model.json")
     p.add_argument("--model", default="standard", help="nominal model: a preset name or a model JSON file (default standard)")
     p.add_argument("--effects", help="comma-separated subset of effects to consider (default: all)")
+    p.add_argument(
+        "--max-rounds",
+        type=int,
+        default=3,
+        help="add at most this many effects, one per round, re-fitting everything found so far (default 3; 1 = one round)",
+    )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=_diagnose)
 

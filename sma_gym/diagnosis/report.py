@@ -30,10 +30,14 @@ def write_report(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrac
         for k, trace in enumerate(traces):
             plots.append(_plot_trace(trace, nominal, result, out / f"{label}_{k}_{Path(trace.name).stem}.png", label))
     plots.append(_plot_regimes(result, out / "residuals_by_regime.png"))
+    if result.rounds:
+        plots.append(_plot_rounds(result, out / "gap_by_round.png"))
 
     verdict = result.verdict
     if verdict == "effect":
         headline = f"**Missing effect: `{result.effect}`**"
+    elif verdict == "effects":
+        headline = f"**Missing effects: {', '.join(f'`{e}`' for e in result.effect)}** (found in that order, one per round)"
     elif verdict == "ambiguous":
         headline = f"**Ambiguous: {' or '.join(f'`{e}`' for e in result.effect)}**. To tell them apart: {result.separating_experiment}."
     elif verdict == "none":
@@ -60,6 +64,9 @@ def write_report(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrac
             shrink = 1.0 - after / before if before > 0 else 0.0
             lines.append(f"| {data} | {output} | {_fmt(before, output)} | {_fmt(refit, output)} | {_fmt(after, output)} | {shrink * 100:.0f} % |")
     lines += ["", "Noise (robust estimate from the data): " + ", ".join(f"{k} {_fmt(v, k)}" for k, v in result.noise.items()), ""]
+    if result.separating_experiment and verdict != "ambiguous":
+        lines += [f"The last round was ambiguous; to tell its candidates apart: {result.separating_experiment}.", ""]
+    lines += _round_lines(result) + _file_lines(result)
     lines += ["## Fitted parameters of the corrected model", "", "| parameter | value | uncertainty (1 sigma) | unit |", "|---|---|---|---|"]
     for name, p in result.parameters.items():
         lines.append(f"| {name} | {p['value']:.5g} | {p['uncertainty']:.2g} | {p['unit']} |")
@@ -94,6 +101,54 @@ def write_report(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrac
     md = out / "diagnosis.md"
     write_text(md, "\n".join(lines) + "\n")
     return md
+
+
+def _round_lines(result: Diagnosis) -> list[str]:
+    lines = [
+        "## Rounds",
+        "",
+        "Each round refits the nominal parameters and the effects found so far with every remaining "
+        "candidate; it stops when nothing is supported, the verdict is ambiguous, or the held-out "
+        "residual is within 2x the noise (normalised RMS 1 = noise).",
+        "",
+        "| round | verdict | effect | held-out normalised RMS (refit only -> with effect) | held-out position RMS | parameters at a bound |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in result.rounds:
+        effect = r["effect"] if isinstance(r["effect"], str) or r["effect"] is None else " or ".join(r["effect"])
+        position = r["gap"]["heldout"].get("position", math.nan)
+        bounds = "; ".join(r["parameters_at_bounds"]) or "none"
+        lines.append(
+            f"| {r['round']} | {r['verdict']} | {effect or ''} | {r['nominal_refit_heldout_normalised_rms']:.3g} -> "
+            f"{r['heldout_normalised_rms']:.3g} | {_fmt(position, 'position')} | {bounds} |"
+        )
+    return lines + [""]
+
+
+def _file_lines(result: Diagnosis) -> list[str]:
+    lines = ["## The gap per file (position RMS)", "", "| data | file | nominal model | corrected model |", "|---|---|---|---|"]
+    for label, files in result.gap_by_file.get("nominal", {}).items():
+        for name, gaps in files.items():
+            after = result.gap_by_file["corrected"][label][name].get("position", math.nan)
+            lines.append(f"| {label} | {name} | {_fmt(gaps.get('position', math.nan), 'position')} | {_fmt(after, 'position')} |")
+    return lines + [""]
+
+
+def _plot_rounds(result: Diagnosis, path: Path) -> Path:
+    """The staircase: position RMS after each round, fitted and held-out data."""
+    fig, axes = new_figure(1, 1, size=(7, 4))
+    ax = axes[0, 0]
+    steps = ["nominal"] + [f"round {r['round']}" for r in result.rounds]
+    for label, style in (("fit", "o-"), ("heldout", "s--")):
+        values = [result.gap_before[label].get("position", math.nan)] + [r["gap"][label].get("position", math.nan) for r in result.rounds]
+        ax.step(range(len(steps)), np.array(values) * 1e3, style, where="post", label=label)
+    noise = result.noise.get("position")
+    if noise:
+        ax.axhline(2 * noise * 1e3, color="k", lw=0.8, ls=":", label="2x noise")
+    ax.set_xticks(range(len(steps)), steps)
+    ax.set(ylabel="position RMS [mm]", title="Gap after each round")
+    ax.legend(fontsize=8)
+    return save(fig, path)
 
 
 def _plot_trace(trace: MeasuredTrace, nominal: ModelConfig, result: Diagnosis, path: Path, label: str) -> Path:
