@@ -157,6 +157,8 @@ class SMAMultiplexedEnv(ImportableSpec, gym.Env):
         return info
 
     def _record(self) -> None:
+        if self.render_mode is None:
+            return  # nothing is drawn: skip building the sample (it is on every step's path)
         st = self.sim.state
         self._renderer.record(
             t=st[0, L.S_TIME],

@@ -320,6 +320,8 @@ class SMAEnv(ImportableSpec, gym.Env):
 
     # ------------------------------------------------------------------------------------
     def _record(self) -> None:
+        if self.render_mode is None:
+            return  # nothing is drawn: skip building the sample (it is on every step's path)
         st = self.sim.state[0]
         self._renderer.record(
             t=st[L.S_TIME],
