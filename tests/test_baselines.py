@@ -108,13 +108,13 @@ def test_t7_forced_cooling_gives_vsc3_a_steady_state_error_that_vsc4_with_feedfo
     assert c7(chapter7, "VSC3 + FF", "forced convection", "step", "steady_state_error_m") > 0.05e-3
     assert c7(chapter7, "VSC4", "forced convection", "step", "steady_state_error_m") > 0.03e-3
     assert abs(c7(chapter7, "VSC4 + FF", "forced convection", "step", "steady_state_error_m")) < 0.03e-3
-    # PID least affected: no steady-state error, and its sine tracking does not get worse.
+    # PID least affected (§7.1): no steady-state error, and its sine tracking degrades least.
     assert abs(c7(chapter7, "PID", "forced convection", "step", "steady_state_error_m")) < 0.03e-3
     ratio = {
         p: c7(chapter7, p, "forced convection", "sine", "rms_error_m") / c7(chapter7, p, "standard", "sine", "rms_error_m")
         for p in ("PID", "VSC3", "VSC4")
     }
-    assert ratio["PID"] <= min(ratio["VSC3"], ratio["VSC4"]) * 1.05, ratio
+    assert ratio["PID"] < min(ratio["VSC3"], ratio["VSC4"]), ratio
 
 
 def test_t7_five_volts_gives_the_vscs_a_steady_state_error_and_the_pid_less_overshoot(chapter7):
@@ -137,16 +137,16 @@ def test_t7_the_half_millimetre_wire_is_too_slow_for_the_sine_while_cooling(chap
 
 def test_t8_more_multiplexed_actuators_rise_slower_and_twenty_volts_restores_speed():
     results = Results()
-    conditions = ((1, 2000.0, 10.0), (16, 2000.0, 10.0), (16, 2000.0, 20.0), (1, 100.0, 10.0))
+    conditions = ((1, 2000.0, 10.0), (16, 2000.0, 10.0), (16, 2000.0, 20.0))
     run_chapter_9([baseline(PID)], results, conditions=conditions, noise_m=0.0)
     rise = {c: results.value("9", "PID", chapter_9_label(*c), "3 mm step", "rise_time_s") for c in conditions}
     assert rise[(16, 2000.0, 10.0)] > 10 * rise[(1, 2000.0, 10.0)]
     assert rise[(16, 2000.0, 20.0)] < 2.0
     assert results.value("9", "PID", chapter_9_label(16, 2000.0, 20.0), "3 mm step", "overshoot_m") > 0.05e-3
-    # 100 Hz cycling: the PID's position ripples at the cycling frequency (row 9l). With the
-    # nominal hysterons the ripple sits at the harness's 0.1 mm oscillation threshold (0.099).
-    p2p = results.value("9", "PID", chapter_9_label(1, 100.0, 10.0), "3 mm step", "oscillation_p2p_m")
-    assert p2p > 0.08e-3
+    # Known gap, not asserted here: row 9l ("low cycling frequency oscillates"). With the
+    # nominal hysterons one actuator ripples by about 0.1 mm at 100 Hz, and by as much at
+    # 1-4 kHz, so nothing singles out the low frequency; `sma-gym fidelity` reports the row
+    # as failing with its numbers.
 
 
 def test_self_sensing_calibration_and_policy_track_without_a_position_sensor():

@@ -24,3 +24,16 @@ def test_ci_runs_the_readme_test_command_verbatim():
     _, tests = readme_commands()
     ci = (ROOT / ".ci" / "run").read_text()
     assert tests in ci
+
+
+def test_package_metadata_uses_an_spdx_licence_and_ships_its_type_marker():
+    """setuptools stops accepting ``license = {text = ...}`` tables in 2027 (PEP 639);
+    ``py.typed`` tells type checkers the package's hints are meant for them."""
+    import tomllib
+
+    root = Path(__file__).resolve().parents[1]
+    project = tomllib.loads((root / "pyproject.toml").read_text())
+    assert project["project"]["license"] == "MIT"
+    assert "Typing :: Typed" in project["project"]["classifiers"]
+    assert (root / "sma_gym" / "py.typed").is_file()
+    assert "py.typed" in project["tool"]["setuptools"]["package-data"]["*"]
