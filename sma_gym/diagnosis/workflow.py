@@ -11,7 +11,9 @@
      N_eff ln(RSS / N) + k ln(N_eff), where N_eff is the sample count divided by the
      residuals' correlation time (smooth model errors are not independent samples);
    * on the held-out data it lowers the normalised RMS error by at least
-     ``HELDOUT_GAIN`` (10 %; ``LATER_ROUND_GAIN``, 25 %, from the second round on).
+     ``HELDOUT_GAIN`` (10 %; ``LATER_ROUND_GAIN``, 25 %, from the second round on), and it
+     is better there than the model as given, unrefitted (a "correction" that makes
+     held-out data worse than no correction is never a finding).
 
    Verdicts: ``effect`` (one supported effect clearly best on held-out data),
    ``ambiguous`` (a second supported effect within ``AMBIGUITY_MARGIN`` (5 %) of the best on
@@ -202,23 +204,33 @@ def diagnose(
     last: _Round | None = None
     chosen_fit: fitting.Fit | None = None
     warm: dict[str, float] = {}
+    as_given = None  # held-out score of the model as given: the nominal, then each round's result
     for number in range(1, max_rounds + 1):
         remaining = [n for n in names if n not in found]
         if not remaining:
             break
         say(f"round {number}: nominal {current.name}")
         gain = HELDOUT_GAIN if number == 1 else LATER_ROUND_GAIN
-        r = _round(current, found, remaining, warm, fit_data, held_data, control_period_s, gain, lambda m: say(f"round {number}: {m}"))
+        # Every round fits relative to the nominal model as given, starting where the last
+        # round ended: the nominal parameters' bounds stay bounds (they would compound if
+        # each round rescaled the previous round's result), and a parameter that ends at one
+        # is reported as a finding rather than hidden behind another rescaling.
+        r = _round(
+            nominal, found, remaining, warm, as_given, fit_data, held_data, control_period_s, gain,
+            lambda m: say(f"round {number}: {m}"),
+        )
         first = first or r
         last = r
+        as_given = r.as_given if as_given is None else as_given
         model_r, offset_r = (r.chosen.fit.model, r.chosen.fit.offset) if r.verdict in ("effect", "ambiguous") else (current, offset)
         rounds.append(
             {
                 "round": number,
                 "verdict": r.verdict,
                 "effect": r.effect,
-                "heldout_normalised_rms": r.chosen.heldout_score,
+                "heldout_normalised_rms": r.chosen.heldout_score if r.verdict in ("effect", "ambiguous") else as_given,
                 "nominal_refit_heldout_normalised_rms": r.ref.heldout_score,
+                "as_given_heldout_normalised_rms": as_given,
                 "parameters_at_bounds": _at_bounds(r.chosen.fit),
                 "candidates": [_describe(c) for c in r.candidates],
                 "gap": _gaps(model_r, offset_r, fit_data, held_data, control_period_s),
@@ -231,8 +243,8 @@ def diagnose(
             break
         found.append(r.effect)
         current, offset, chosen_fit = r.chosen.fit.model, r.chosen.fit.offset, r.chosen.fit
-        # Effects found so far are refitted in later rounds, starting where they ended.
-        warm = {k: v for k, v in chosen_fit.values_by_name().items() if "." in k}
+        warm = chosen_fit.values_by_name()
+        as_given = r.chosen.heldout_score
         if r.chosen.heldout_score <= NOISE_STOP:
             say(f"round {number}: held-out residual within {NOISE_STOP:g}x the noise; stopping")
             break
@@ -290,6 +302,8 @@ class _Round:
     chosen: Candidate
     candidates: list[Candidate]
     separating: str | None
+    as_given: float
+    """Held-out normalised RMS of the model this round started from, unrefitted."""
 
 
 def _round(
@@ -297,6 +311,7 @@ def _round(
     found: Sequence[str],
     names: Sequence[str],
     warm: dict[str, float],
+    as_given: float | None,
     fit_data,
     held_data,
     control_period_s: float,
@@ -304,10 +319,17 @@ def _round(
     say: Callable[[str], None],
 ) -> _Round:
     """One round: the nominal refit (with the effects found so far), then every remaining
-    candidate on top, scored by BIC on the fitted data and by the held-out error."""
+    candidate on top, scored by BIC on the fitted data and by the held-out error. A
+    candidate must also beat ``as_given`` (the held-out score of the model the round starts
+    from, without any refit; computed here for the first round): a correction that makes
+    held-out data worse than no correction is never a finding."""
     problem = fitting.Problem(nominal, fit_data, control_period_s)
     held_problem = fitting.Problem(nominal, held_data, control_period_s)
     base_params = problem.nominal_parameters() + tuple(p for e in found for p in fitting.effect_parameters(e))
+    if as_given is None:
+        start = np.array([p.start for p in base_params])
+        res = held_problem.residual_matrix(base_params, [start])[:, 0]
+        as_given = float(np.sqrt(np.mean(res**2))) if res.size else 0.0
     say(f"candidate 1/{len(names) + 1}: nominal refit")
     refit = problem.fit("nominal refit", base_params, warm=warm or None)
     # One effective sample count for every candidate (from the reference's residuals), so
@@ -322,17 +344,17 @@ def _round(
     for c in candidates[1:]:
         c.delta_bic = c.bic - ref.bic
         c.heldout_gain = 1.0 - c.heldout_score / ref.heldout_score if ref.heldout_score > 0 else 0.0
-        c.supported = c.delta_bic < -BIC_THRESHOLD and c.heldout_gain >= heldout_gain
+        c.supported = c.delta_bic < -BIC_THRESHOLD and c.heldout_gain >= heldout_gain and c.heldout_score < as_given
     supported = sorted([c for c in candidates[1:] if c.supported], key=lambda c: c.heldout_score)
     if not supported:
         verdict = "unexplained" if _noise_ratio(ref, held_problem) > STRUCTURED_RATIO else "none"
-        return _Round(verdict, None, ref, ref, candidates, None)
+        return _Round(verdict, None, ref, ref, candidates, None, as_given)
     best = supported[0]
     rivals = [c for c in supported[1:] if c.heldout_score <= best.heldout_score * (1.0 + AMBIGUITY_MARGIN)]
     if rivals:
         separating = SEPARATING_EXPERIMENTS.get(frozenset({best.name, rivals[0].name}), GENERIC_EXPERIMENT)
-        return _Round("ambiguous", [best.name] + [c.name for c in rivals], ref, best, candidates, separating)
-    return _Round("effect", best.name, ref, best, candidates, None)
+        return _Round("ambiguous", [best.name] + [c.name for c in rivals], ref, best, candidates, separating, as_given)
+    return _Round("effect", best.name, ref, best, candidates, None, as_given)
 
 
 def _at_bounds(fit: fitting.Fit) -> list[str]:
