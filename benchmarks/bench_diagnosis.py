@@ -42,6 +42,8 @@ def case(effect: str | None, seed: int) -> tuple[str, float]:
         answer = str(result.effect)
     elif result.verdict == "ambiguous":
         answer = "ambiguous(" + "|".join(result.effect) + ")"
+    elif result.verdict == "effects":
+        answer = "effects(" + "+".join(result.effect) + ")"  # a hidden effect plus spurious ones
     else:
         answer = result.verdict
     return answer, elapsed
