@@ -82,20 +82,6 @@ def cosine_fraction_slope(u: float) -> float:
     return -0.5 * math.pi * math.sin(math.pi * u)
 
 
-def major_loop(temperature_c, stress_pa, a_s, a_f, m_s, m_f, c_a, c_m):
-    """Both branches of the major loop (numpy-friendly, for plots and tests).
-
-    Returns ``(xi_heating, xi_cooling)``; the hysteresis keeps every state between them.
-    """
-    import numpy as np
-
-    t = np.asarray(temperature_c, dtype=float)
-    s = np.asarray(stress_pa, dtype=float)
-    u_h = np.clip((t - a_s - s / c_a) / (a_f - a_s), 0.0, 1.0)
-    u_c = np.clip((t - m_f - s / c_m) / (m_s - m_f), 0.0, 1.0)
-    return 0.5 * (1.0 + np.cos(np.pi * u_h)), 0.5 * (1.0 + np.cos(np.pi * u_c))
-
-
 MINOR_LOOP_LAWS = ("preisach", "play")
 """Names of the hysteresis laws (see the module docstring)."""
 
