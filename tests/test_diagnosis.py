@@ -89,6 +89,14 @@ def test_two_hidden_effects_are_named_one_per_round_and_nothing_more():
     assert result.gap_after["heldout"]["position"] < 0.2 * result.gap_before["heldout"]["position"]
 
 
+def test_no_candidates_is_the_nominal_refit_alone():
+    """``effects=[]``: one round that only refits the nominal parameters."""
+    fit = synthetic(None, 3, "steps", 8.0)
+    result = diagnose([fit], [], ModelConfig(), effects=[])
+    assert result.verdict == "none" and [r["round"] for r in result.rounds] == [1]
+    assert result.rounds[0]["candidates"][0]["name"] == "nominal refit" and len(result.rounds[0]["candidates"]) == 1
+
+
 def test_without_heldout_files_the_end_of_each_file_is_held_out():
     fit = synthetic("sensor_lag", 5, "random", 40.0)
     result = diagnose([fit], [], ModelConfig())

@@ -207,8 +207,8 @@ def diagnose(
     as_given = None  # held-out score of the model as given: the nominal, then each round's result
     for number in range(1, max_rounds + 1):
         remaining = [n for n in names if n not in found]
-        if not remaining:
-            break
+        if not remaining and number > 1:
+            break  # (with no candidates at all, round 1 is the nominal refit alone)
         say(f"round {number}: nominal {current.name}")
         gain = HELDOUT_GAIN if number == 1 else LATER_ROUND_GAIN
         # Every round fits relative to the nominal model as given, starting where the last
@@ -248,7 +248,7 @@ def diagnose(
         if r.chosen.heldout_score <= NOISE_STOP:
             say(f"round {number}: held-out residual within {NOISE_STOP:g}x the noise; stopping")
             break
-    assert first is not None and last is not None
+    assert first is not None and last is not None  # round 1 always runs
 
     if not found:
         verdict, effect, separating = first.verdict, first.effect, first.separating
