@@ -67,6 +67,8 @@ def _diagnose(args: argparse.Namespace) -> int:
 
     if not 1 <= args.max_rounds <= len(EFFECTS):
         raise ValueError(f"--max-rounds {args.max_rounds}: expected an integer from 1 to {len(EFFECTS)}")
+    if args.cross_validate and (args.heldout or len(args.files) < 2):
+        raise ValueError("--cross-validate: expected at least 2 files and no --heldout (each file is held out in turn)")
     out = check_output_folder(args.out)
     try:
         fit = load_traces(args.files, DIAGNOSIS_MIN_ROWS)
@@ -83,6 +85,17 @@ def _diagnose(args: argparse.Namespace) -> int:
     def progress(message: str) -> None:
         print(f"sma-gym diagnose: {message}", file=sys.stderr, flush=True)
 
+    if args.cross_validate:
+        from sma_gym._io import write_json, write_text
+        from sma_gym.diagnosis.workflow import cross_validate, cross_validation_table
+
+        with locked_folder(out):
+            cv = cross_validate(fit, nominal, effects, progress=progress, max_rounds=args.max_rounds)
+            table = cross_validation_table(cv)
+            write_json(out / "cross_validation.json", cv)
+            write_text(out / "cross_validation.md", "# Leave one run out\n\n" + table)
+        print(json.dumps(cv) if args.json else table, end="" if not args.json else "\n")
+        return 0
     with locked_folder(out):
         result = diagnose(fit, held, nominal, effects, progress=progress, max_rounds=args.max_rounds)
         paths = write_outputs(result, out, fit, held, nominal)
@@ -153,6 +166,12 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=3,
         help="add at most this many effects, one per round, re-fitting everything found so far (default 3; 1 = one round)",
+    )
+    p.add_argument(
+        "--cross-validate",
+        action="store_true",
+        help="leave one run out: diagnose on all files but one and predict that one, for every file; "
+        "writes cross_validation.md/.json",
     )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=_diagnose)

@@ -460,6 +460,59 @@ def _describe(c: Candidate) -> dict[str, Any]:
     }
 
 
+def cross_validate(
+    traces: Sequence[MeasuredTrace],
+    nominal: ModelConfig | None = None,
+    effects: Sequence[str] | None = None,
+    control_period_s: float = CONTROL_PERIOD_S,
+    progress: Callable[[str], None] | None = None,
+    max_rounds: int = DEFAULT_MAX_ROUNDS,
+) -> dict[str, Any]:
+    """Leave one run out: for every file, diagnose on all the others and predict it.
+
+    Returns ``{"folds": [...]}``, one entry per left-out file with the verdict, the effects
+    found and its position RMS under the nominal and the corrected model (what a model
+    identified on the other runs predicts for a run it has never seen).
+    """
+    if len(traces) < 2:
+        raise ValueError(f"cross-validation needs at least 2 files, got {len(traces)}")
+    folds = []
+    for k, held in enumerate(traces):
+        fit = [t for j, t in enumerate(traces) if j != k]
+
+        def say(message: str, name: str = held.name) -> None:
+            if progress is not None:
+                progress(f"fold {k + 1}/{len(traces)} (predict {name}): {message}")
+
+        result = diagnose(fit, [held], nominal, effects, control_period_s, progress=say, max_rounds=max_rounds)
+        folds.append(
+            {
+                "held_out": held.name,
+                "fitted": [t.name for t in fit],
+                "verdict": result.verdict,
+                "effects_found": result.effects_found,
+                "position_rms_nominal_m": result.gap_before["heldout"].get("position", math.nan),
+                "position_rms_corrected_m": result.gap_after["heldout"].get("position", math.nan),
+                "position_noise_m": result.noise.get("position", math.nan),
+            }
+        )
+    return {"folds": folds}
+
+
+def cross_validation_table(cv: dict[str, Any]) -> str:
+    """The leave-one-run-out table as markdown."""
+    lines = [
+        "| predicted run | fitted on | verdict | effects | position RMS, nominal | corrected |",
+        "|---|---|---|---|---|---|",
+    ]
+    for f in cv["folds"]:
+        lines.append(
+            f"| {f['held_out']} | {', '.join(f['fitted'])} | {f['verdict']} | {', '.join(f['effects_found']) or '-'} | "
+            f"{f['position_rms_nominal_m'] * 1e3:.3f} mm | {f['position_rms_corrected_m'] * 1e3:.3f} mm |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def write_outputs(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrace], heldout_traces: Sequence[MeasuredTrace], nominal: ModelConfig) -> dict[str, Path]:
     """Corrected model file, markdown report, JSON and plots into ``out``.
 
