@@ -61,12 +61,11 @@ def _diagnose(args: argparse.Namespace) -> int:
     from sma_gym._io import check_output_folder, locked_folder
     from sma_gym.data import MeasuredDataError, load_traces
     from sma_gym.data.measured import DIAGNOSIS_MIN_ROWS
-    from sma_gym.diagnosis.workflow import diagnose, write_outputs
+    from sma_gym.diagnosis.workflow import diagnose, require_max_rounds, write_outputs
     from sma_gym.effects import EFFECTS
     from sma_gym.model import load_model
 
-    if not 1 <= args.max_rounds <= len(EFFECTS):
-        raise ValueError(f"--max-rounds {args.max_rounds}: expected an integer from 1 to {len(EFFECTS)}")
+    require_max_rounds("--max-rounds", args.max_rounds)
     if args.cross_validate and (args.heldout or len(args.files) < 2):
         raise ValueError("--cross-validate: expected at least 2 files and no --heldout (each file is held out in turn)")
     out = check_output_folder(args.out)

@@ -140,6 +140,13 @@ class Diagnosis:
         }
 
 
+def require_max_rounds(name: str, value: object) -> int:
+    """A round count: at most one effect is added per round, so at most one round per effect."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= len(EFFECTS):
+        raise ValueError(f"{name} = {value!r}: expected an integer from 1 to {len(EFFECTS)}")
+    return value
+
+
 def _split(trace: MeasuredTrace) -> tuple[np.ndarray, np.ndarray]:
     cut = trace.t[0] + (1.0 - HOLDOUT_FRACTION) * (trace.t[-1] - trace.t[0])
     fit_mask = trace.t < cut
@@ -174,8 +181,7 @@ def diagnose(
     for name in names:
         if name not in EFFECTS:
             raise ValueError(f"effect = {name!r}: expected one of {', '.join(EFFECTS)}")
-    if isinstance(max_rounds, bool) or not isinstance(max_rounds, int) or not 1 <= max_rounds <= len(EFFECTS):
-        raise ValueError(f"max_rounds = {max_rounds!r}: expected an integer from 1 to {len(EFFECTS)}")
+    require_max_rounds("max_rounds", max_rounds)
     if not fit_traces:
         raise ValueError("no files to fit: give at least one measured trace")
     fit_traces = [_decimated(t, control_period_s, say) for t in fit_traces]

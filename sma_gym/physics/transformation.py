@@ -50,6 +50,7 @@ exactly a backlash of 15 K followed by one cosine.
 from __future__ import annotations
 
 import math
+from statistics import NormalDist
 
 from sma_gym._jit import njit
 
@@ -95,18 +96,6 @@ _GH_WEIGHTS = (0.011257411327720691, 0.2220759220056126, 0.5333333333333334, 0.2
 _WIDTH_RANK_7 = (3, 6, 0, 2, 5, 1, 4)
 
 
-def _normal_quantile(p: float) -> float:
-    # Acklam's rational approximation is overkill here; bisection on erf is exact enough.
-    lo, hi = -10.0, 10.0
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        if 0.5 * (1.0 + math.erf(mid / math.sqrt(2.0))) < p:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
-
-
 def hysteron_nodes(
     spread_k: float,
     width_spread: float,
@@ -146,7 +135,7 @@ def hysteron_nodes(
     if centre_form == "uniform":
         centres = _uniform_centres(spread_k, n)
     else:
-        raw = [_normal_quantile((k + 0.5) / n) for k in range(n)]
+        raw = [NormalDist().inv_cdf((k + 0.5) / n) for k in range(n)]
         std = math.sqrt(sum(r * r for r in raw) / n)
         centres = [spread_k * r / std for r in raw]
     ranks = _WIDTH_RANK_7 if n == 7 else tuple(range(n))
