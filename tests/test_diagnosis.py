@@ -17,6 +17,7 @@ from sma_gym.cli import main
 from sma_gym.data import find_real_data_dir, load_trace
 from sma_gym.diagnosis import diagnose
 from sma_gym.diagnosis.synth import SynthSpec, generate, write
+from sma_gym.diagnosis.workflow import NOISE_STOP
 from sma_gym.effects import EFFECTS
 from sma_gym.model import ModelConfig, load_model
 
@@ -82,9 +83,13 @@ def test_two_hidden_effects_are_named_one_per_round_and_nothing_more():
     result = diagnose([trace("steps", FIT_SECONDS)], [trace("sine", HELD_SECONDS)], ModelConfig())
     assert result.verdict == "effects"
     assert sorted(result.effects_found) == ["coulomb_friction", "sensor_lag"]
-    assert [r["verdict"] for r in result.rounds] == ["effect", "effect", "none"]
-    assert {s.name for s in result.corrected_model.effects.active()} == {"coulomb_friction", "sensor_lag"}
     held = [r["heldout_normalised_rms"] for r in result.rounds]
+    verdicts = [r["verdict"] for r in result.rounds]
+    # After the second effect the loop either stops because the held-out residual is within
+    # NOISE_STOP of the noise (which one happens depends on the last bits of the CPU's
+    # floating point), or runs a third round that finds nothing supported.
+    assert verdicts == ["effect", "effect", "none"] or (verdicts == ["effect", "effect"] and held[1] <= NOISE_STOP)
+    assert {s.name for s in result.corrected_model.effects.active()} == {"coulomb_friction", "sensor_lag"}
     assert held[1] < 0.5 * held[0]  # the second round closes most of what the first left
     assert result.gap_after["heldout"]["position"] < 0.2 * result.gap_before["heldout"]["position"]
 
