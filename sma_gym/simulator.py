@@ -94,24 +94,26 @@ def pack_params(
     col[L.P_ALPHA_TH] = w.thermal_expansion_1_k
     col[L.P_C_A] = w.stress_coefficient_austenite_pa_k
     col[L.P_C_M] = w.stress_coefficient_martensite_pa_k
-    col[L.P_A_S] = w.austenite_start_c
-    col[L.P_A_F] = w.austenite_finish_c
-    col[L.P_M_S] = w.martensite_start_c
-    col[L.P_M_F] = w.martensite_finish_c
     # Nominal latent heat plus the latent_heat effect's change (off = 0); in kelvin per unit xi.
     latent = max(0.0, w.latent_heat_j_kg + fx.value("latent_heat", "change_j_kg")) / w.specific_heat_j_kg_k
     col[L.P_LATENT] = latent
     col[L.P_LATENT_COOL] = latent * (0.7 if fx.form("latent_heat") == "asymmetric" else 1.0)
     # The transformation_spread effect adds an independent spread: variances add.
     spread_k = math.hypot(w.transformation_spread_k, fx.value("transformation_spread", "spread_k"))
-    shift_h, shift_c, weights = hysteron_nodes(
+    shift_h, shift_c, weights, widening_k = hysteron_nodes(
         spread_k,
         w.hysteron_width_spread,
         min(w.austenite_start_c - w.martensite_finish_c, w.austenite_finish_c - w.martensite_start_c),
         w.minor_loop_law,
         fx.form("transformation_spread"),
         L.MAX_SPREAD_NODES,
+        min(w.austenite_finish_c - w.austenite_start_c, w.martensite_start_c - w.martensite_finish_c),
     )
+    # A spread wide for the branch range widens every branch (loop widths unchanged).
+    col[L.P_A_S] = w.austenite_start_c - 0.5 * widening_k
+    col[L.P_A_F] = w.austenite_finish_c + 0.5 * widening_k
+    col[L.P_M_S] = w.martensite_start_c + 0.5 * widening_k
+    col[L.P_M_F] = w.martensite_finish_c - 0.5 * widening_k
     col[L.P_N_NODES] = len(weights)
     for k, (sh, sc, wt) in enumerate(zip(shift_h, shift_c, weights)):
         col[L.P_NODE_HEAT0 + k] = sh

@@ -166,15 +166,45 @@ def test_the_hysterons_span_the_spread_and_keep_heating_above_cooling():
     widths from nearly zero to the full 15 K, every heating branch above its cooling branch."""
     from sma_gym.physics.transformation import hysteron_nodes
 
-    shift_h, shift_c, weights = hysteron_nodes(6.0, 1.0, 15.0)
+    shift_h, shift_c, weights, widening_k = hysteron_nodes(6.0, 1.0, 15.0, branch_range_k=35.0)
+    assert widening_k == 0.0  # the standard wire's 35 K branches bridge these centres
     centres = (np.array(shift_h) + np.array(shift_c)) / 2
     narrowing = np.array(shift_c) - np.array(shift_h)
     assert np.sum(weights) == pytest.approx(1.0)
     assert np.sqrt(np.sum(np.array(weights) * centres**2)) == pytest.approx(6.0)
     assert narrowing.min() < 2.0 and narrowing.max() > 12.0 and np.all(narrowing <= 15.0)
-    assert hysteron_nodes(0.0, 0.0, 15.0, law="play") == ([0.0], [0.0], [1.0])
+    assert hysteron_nodes(0.0, 0.0, 15.0, law="play") == ([0.0], [0.0], [1.0], 0.0)
     with pytest.raises(ValueError, match="minor-loop law"):
         hysteron_nodes(6.0, 1.0, 15.0, law="duhem")
+
+
+@pytest.mark.parametrize("law", ["play", "preisach"])
+def test_a_wide_spread_on_narrow_branches_is_smooth_and_keeps_mean_and_variance(law):
+    """A 0.5 mm HT wire's 10 K branches with a 12 K spread: a few discrete hysterons would
+    leave plateaus between their cosines. The nodes move closer and the branches widen, so
+    the quasi-static heating curve xi(T) has no plateau, and the transformation keeps the
+    mean and the variance of the spread distribution convolved with the cosine."""
+    from sma_gym.physics.transformation import COSINE_VARIANCE, hysteron_nodes
+
+    spread_k, range_k = 12.0, 10.0
+    shift_h, shift_c, weights, widening_k = hysteron_nodes(spread_k, 1.0, 10.0, law, branch_range_k=range_k)
+    assert widening_k > 0.0
+    width = range_k + widening_k
+    temps = np.linspace(-80.0, 80.0, 16001)
+    # Heating branches of every hysteron (xi from 1 to 0), each a cosine over `width`.
+    u = np.clip((temps[:, None] - np.array(shift_h)[None, :] + width / 2) / width, 0.0, 1.0)
+    xi = (0.5 * (1.0 + np.cos(np.pi * u)) * np.array(weights)[None, :]).sum(axis=1)
+    slope = -np.gradient(xi, temps)
+    inside = (xi > 0.05) & (xi < 0.95)
+    assert slope[inside].min() > 0.35 * slope[inside].max()  # no plateau (0.24 unwidened)
+    centres = (np.array(shift_h) + np.array(shift_c)) / 2
+    assert np.dot(weights, centres) == pytest.approx(0.0, abs=1e-9)
+    assert np.dot(weights, centres**2) + COSINE_VARIANCE * width**2 == pytest.approx(spread_k**2 + COSINE_VARIANCE * range_k**2)
+    if law == "play":  # every hysteron's heating branch sits at its centre: the curve itself
+        density = slope / np.trapezoid(slope, temps)
+        mean = np.trapezoid(temps * density, temps)
+        assert mean == pytest.approx(0.0, abs=0.05)
+        assert np.trapezoid((temps - mean) ** 2 * density, temps) == pytest.approx(spread_k**2 + COSINE_VARIANCE * range_k**2, rel=0.01)
 
 
 def test_pwm_ripple_does_not_make_xi_ratchet():

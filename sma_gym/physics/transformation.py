@@ -86,10 +86,6 @@ def cosine_fraction_slope(u: float) -> float:
 MINOR_LOOP_LAWS = ("preisach", "play")
 """Names of the hysteresis laws (see the module docstring)."""
 
-# Probabilists' Gauss-Hermite, 5 nodes: exact for polynomials up to degree 9.
-_GH_NODES = (-2.8569700138728056, -1.3556261799742657, 0.0, 1.3556261799742657, 2.8569700138728056)
-_GH_WEIGHTS = (0.011257411327720691, 0.2220759220056126, 0.5333333333333334, 0.2220759220056126, 0.011257411327720691)
-
 # Which width quantile each centre gets (Latin-hypercube pairing of 7 hysterons): centre
 # and width uncorrelated (rank correlation -0.07), the narrowest hysteron near the middle of
 # the transformation, where closed-loop reversals happen.
@@ -103,8 +99,9 @@ def hysteron_nodes(
     law: str = "preisach",
     centre_form: str = "default",
     max_nodes: int = 7,
-) -> tuple[list[float], list[float], list[float]]:
-    """Hysterons of the transformation: ``(shift_h, shift_c, weights)``, one entry each.
+    branch_range_k: float = math.inf,
+) -> tuple[list[float], list[float], list[float], float]:
+    """Hysterons of the transformation: ``(shift_h, shift_c, weights, widening_k)``.
 
     ``spread_k`` [K]: standard deviation of the hysterons' centre temperatures (§5.7).
     ``width_spread`` [-]: 0 gives every hysteron the full width ``loop_width_k``; 1 spreads
@@ -113,24 +110,24 @@ def hysteron_nodes(
     so no hysteron's heating branch ever lies below its cooling branch. ``centre_form``:
     ``default`` normal centres, ``uniform`` uniformly spread centres (same std).
 
-    The ``play`` law, or no width spread, uses 5-point Gauss-Hermite centres (one node when
-    there is no spread either, so the simplest model costs nothing extra). The ``preisach``
-    law uses ``max_nodes`` equally weighted hysterons whose centres are the distribution's
-    quantiles (rescaled to the exact std) and whose widths are the uniform quantiles,
-    paired Latin-hypercube fashion.
+    ``max_nodes`` equally weighted hysterons (one when there is neither spread nor width
+    spread, so the simplest model costs nothing extra) whose centres are the distribution's
+    quantiles (rescaled to the exact std); with the ``preisach`` law their widths are the
+    uniform quantiles, paired Latin-hypercube fashion, with the ``play`` law all are full.
+
+    ``branch_range_k`` [K] is the temperature range of one branch's cosine (min(A_f - A_s,
+    M_s - M_f)). A few discrete centres further apart than about half that range would turn
+    a smooth distribution into a staircase with plateaus (a narrow-range HT wire with a
+    10 K spread did exactly that). Then the nodes move closer and every branch's range is
+    widened by ``widening_k`` (A_s and M_f lower by half of it, A_f and M_s higher; the loop
+    widths A_s - M_f and A_f - M_s are unchanged) so that the transformation keeps the same
+    mean and the same variance, the cosine's variance being ``COSINE_VARIANCE`` times its
+    range squared. Without spread, or with ranges wide enough (the standard wire), it is 0.
     """
     if law not in MINOR_LOOP_LAWS:
         raise ValueError(f"minor-loop law = {law!r}: expected one of {MINOR_LOOP_LAWS}")
-    if law == "play" or width_spread == 0.0:
-        if spread_k == 0.0:
-            return [0.0], [0.0], [1.0]
-        if centre_form == "uniform":
-            centres = _uniform_centres(spread_k, max_nodes)
-            weights = [1.0 / max_nodes] * max_nodes
-        else:
-            centres = [spread_k * n for n in _GH_NODES]
-            weights = list(_GH_WEIGHTS)
-        return centres, list(centres), _exact_unit_sum(weights)
+    if spread_k == 0.0 and (law == "play" or width_spread == 0.0):
+        return [0.0], [0.0], [1.0], 0.0
     n = max_nodes
     if centre_form == "uniform":
         centres = _uniform_centres(spread_k, n)
@@ -138,13 +135,37 @@ def hysteron_nodes(
         raw = [NormalDist().inv_cdf((k + 0.5) / n) for k in range(n)]
         std = math.sqrt(sum(r * r for r in raw) / n)
         centres = [spread_k * r / std for r in raw]
+    centres, widening_k = _smooth_centres(centres, spread_k, branch_range_k)
     ranks = _WIDTH_RANK_7 if n == 7 else tuple(range(n))
+    width = 0.0 if law == "play" else width_spread
     shift_h, shift_c = [], []
     for k in range(n):
-        narrowing = width_spread * loop_width_k * (ranks[k] + 0.5) / n
+        narrowing = width * loop_width_k * (ranks[k] + 0.5) / n
         shift_h.append(centres[k] - 0.5 * narrowing)
         shift_c.append(centres[k] + 0.5 * narrowing)
-    return shift_h, shift_c, _exact_unit_sum([1.0 / n] * n)
+    return shift_h, shift_c, _exact_unit_sum([1.0 / n] * n), widening_k
+
+
+COSINE_VARIANCE = 0.25 - 2.0 / math.pi**2
+"""Variance of the cosine law's transition over a unit range: F(u) = (1 + cos(pi u)) / 2 is
+the distribution function of a density (pi / 2) sin(pi u) on [0, 1]."""
+
+SMOOTH_GAP_RATIO = 0.5
+"""The largest gap between neighbouring hysteron centres, as a fraction of the branch
+range, that still sums to a smooth transformation (no plateau between the cosines)."""
+
+
+def _smooth_centres(centres: list[float], spread_k: float, branch_range_k: float) -> tuple[list[float], float]:
+    """Centres moved closer and the range widening that keep mean and variance (see above)."""
+    gap = max((b - a for a, b in zip(centres, centres[1:])), default=0.0)
+    if spread_k <= 0.0 or gap <= SMOOTH_GAP_RATIO * branch_range_k:
+        return centres, 0.0
+    # Gaps scale with the node spread s: gap(s) = r s. Ask for W' = r s / SMOOTH_GAP_RATIO and
+    # s^2 + c W'^2 = spread^2 + c W^2 (c = COSINE_VARIANCE): solve for s.
+    r, c = gap / spread_k, COSINE_VARIANCE
+    k = r / SMOOTH_GAP_RATIO
+    s = math.sqrt((spread_k**2 + c * branch_range_k**2) / (1.0 + c * k * k))
+    return [x * s / spread_k for x in centres], k * s - branch_range_k
 
 
 def _exact_unit_sum(weights: list[float]) -> list[float]:
