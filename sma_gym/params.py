@@ -14,6 +14,9 @@ written next to the parameter it affects.
 
 Presets for the report's conditions and for the real bench of
 ``shared/data/real`` are available through :func:`preset`.
+
+Adding a parameter or an effect: the steps are listed in one place, the docstring of
+:mod:`sma_gym.core.layout`.
 """
 
 from __future__ import annotations
@@ -455,6 +458,13 @@ class ActuatorParams:
     def rest_stress_pa(self) -> float:
         """sigma0 = F_pre / A [Pa]: wire stress at rest (x = 0)."""
         return self.mechanism.spring_preload_n / self.wire.area_m2
+
+    @property
+    def usable_stroke_m(self) -> float:
+        """The stroke a controller can use [m]: the driver's end-of-travel position if it has
+        one, else the wire's eps0 * l0. The envs scale positions and references by it."""
+        eot = self.driver.end_of_travel_m
+        return eot if math.isfinite(eot) else self.wire.max_stroke_m
 
     def with_changes(self, **changes: Any) -> "ActuatorParams":
         """Return a copy with fields changed, addressed as ``"part.field"`` or ``part=Part(...)``.

@@ -7,15 +7,18 @@
 True
 
 Every user (envs, multiplexer, vector env, model fitting) goes through this class and the
-single compiled core in :mod:`sma_gym.core.kernel`. State lives in ``state`` (one column
-per actuator, rows in :mod:`sma_gym.core.layout`); the properties below are views of it,
-so they always show the current values without copying.
+single compiled core in :mod:`sma_gym.core.kernel`. State lives in ``state`` and parameters
+in ``params`` (one row per actuator, fields in :mod:`sma_gym.core.layout`). The properties
+below are named views of them, each an array over actuators with its unit in its name; they
+always show the current values without copying. Code outside the simulator and the
+compiled core reads these views (or :meth:`Simulator.read`), never the layout indices.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Iterable, Sequence
+from operator import itemgetter
+from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -45,7 +48,7 @@ which moves hysterons irreversibly."""
 
 _NO_NOISE = np.zeros((0, 4, 0))
 _NO_RECORD = np.zeros((0, 0, 0))
-_NO_ROWS = np.zeros(0, dtype=np.int64)
+_NO_FIELDS = np.zeros(0, dtype=np.int64)
 
 
 def pack_params(
@@ -59,45 +62,45 @@ def pack_params(
     max_temperature_step_k: float = DEFAULT_MAX_TEMPERATURE_STEP_K,
     max_position_step_m: float = DEFAULT_MAX_POSITION_STEP_M,
 ) -> np.ndarray:
-    """Turn a model configuration into one column of the core's parameter matrix."""
+    """Turn a model configuration into one actuator's row of the core's parameter matrix."""
     require_choice("pwm_mode", pwm_mode, PWM_MODES)
     p = model.actuator
     w, m, c, d, s = p.wire, p.mechanism, p.convection, p.driver, p.sensors
     fx = model.effects
-    col = np.zeros(L.N_PARAMS)
+    row = np.zeros(L.N_PARAMS)
 
-    col[L.P_AREA] = w.area_m2
-    col[L.P_LENGTH] = w.length_m
-    col[L.P_HEAT_CAP] = w.heat_capacity_j_k
-    col[L.P_SPECIFIC_HEAT] = w.specific_heat_j_kg_k
-    col[L.P_SURFACE] = w.surface_m2
+    row[L.P_AREA] = w.area_m2
+    row[L.P_LENGTH] = w.length_m
+    row[L.P_HEAT_CAP] = w.heat_capacity_j_k
+    row[L.P_SPECIFIC_HEAT] = w.specific_heat_j_kg_k
+    row[L.P_SURFACE] = w.surface_m2
 
     h_scale = c.scale_for(w.diameter_m)
     conv_scale = fx.value("convection_change", "scale")
     conv_form = fx.form("convection_change")
     if conv_form == "power":
-        col[L.P_H0] = c.h0_w_m2_k * h_scale
-        col[L.P_H2] = c.h2_w_m2_k3 * h_scale
-        col[L.P_CONV_FORM] = CONVECTION_POWER
-        col[L.P_CONV_POWER_SCALE] = conv_scale
+        row[L.P_H0] = c.h0_w_m2_k * h_scale
+        row[L.P_H2] = c.h2_w_m2_k3 * h_scale
+        row[L.P_CONV_FORM] = CONVECTION_POWER
+        row[L.P_CONV_POWER_SCALE] = conv_scale
     else:
-        col[L.P_H0] = conv_scale * c.h0_w_m2_k * h_scale
-        col[L.P_H1] = conv_scale * fx.value("convection_change", "h1_w_m2_k2") * h_scale
-        col[L.P_H2] = conv_scale * c.h2_w_m2_k3 * h_scale
-        col[L.P_CONV_FORM] = CONVECTION_LAW
-        col[L.P_CONV_POWER_SCALE] = 1.0
-    col[L.P_T_AMB] = c.ambient_temperature_c
+        row[L.P_H0] = conv_scale * c.h0_w_m2_k * h_scale
+        row[L.P_H1] = conv_scale * fx.value("convection_change", "h1_w_m2_k2") * h_scale
+        row[L.P_H2] = conv_scale * c.h2_w_m2_k3 * h_scale
+        row[L.P_CONV_FORM] = CONVECTION_LAW
+        row[L.P_CONV_POWER_SCALE] = 1.0
+    row[L.P_T_AMB] = c.ambient_temperature_c
 
-    col[L.P_D_A] = w.youngs_modulus_austenite_pa
-    col[L.P_D_M] = w.youngs_modulus_martensite_pa
-    col[L.P_EPS0] = w.max_transformation_strain
-    col[L.P_ALPHA_TH] = w.thermal_expansion_1_k
-    col[L.P_C_A] = w.stress_coefficient_austenite_pa_k
-    col[L.P_C_M] = w.stress_coefficient_martensite_pa_k
+    row[L.P_D_A] = w.youngs_modulus_austenite_pa
+    row[L.P_D_M] = w.youngs_modulus_martensite_pa
+    row[L.P_EPS0] = w.max_transformation_strain
+    row[L.P_ALPHA_TH] = w.thermal_expansion_1_k
+    row[L.P_C_A] = w.stress_coefficient_austenite_pa_k
+    row[L.P_C_M] = w.stress_coefficient_martensite_pa_k
     # Nominal latent heat plus the latent_heat effect's change (off = 0); in kelvin per unit xi.
     latent = max(0.0, w.latent_heat_j_kg + fx.value("latent_heat", "change_j_kg")) / w.specific_heat_j_kg_k
-    col[L.P_LATENT] = latent
-    col[L.P_LATENT_COOL] = latent * (0.7 if fx.form("latent_heat") == "asymmetric" else 1.0)
+    row[L.P_LATENT] = latent
+    row[L.P_LATENT_COOL] = latent * (0.7 if fx.form("latent_heat") == "asymmetric" else 1.0)
     # The transformation_spread effect adds an independent spread: variances add.
     spread_k = math.hypot(w.transformation_spread_k, fx.value("transformation_spread", "spread_k"))
     shift_h, shift_c, weights, widening_k = hysteron_nodes(
@@ -110,61 +113,64 @@ def pack_params(
         min(w.austenite_finish_c - w.austenite_start_c, w.martensite_start_c - w.martensite_finish_c),
     )
     # A spread wide for the branch range widens every branch (loop widths unchanged).
-    col[L.P_A_S] = w.austenite_start_c - 0.5 * widening_k
-    col[L.P_A_F] = w.austenite_finish_c + 0.5 * widening_k
-    col[L.P_M_S] = w.martensite_start_c + 0.5 * widening_k
-    col[L.P_M_F] = w.martensite_finish_c - 0.5 * widening_k
-    col[L.P_N_NODES] = len(weights)
+    row[L.P_A_S] = w.austenite_start_c - 0.5 * widening_k
+    row[L.P_A_F] = w.austenite_finish_c + 0.5 * widening_k
+    row[L.P_M_S] = w.martensite_start_c + 0.5 * widening_k
+    row[L.P_M_F] = w.martensite_finish_c - 0.5 * widening_k
+    row[L.P_N_NODES] = len(weights)
     for k, (sh, sc, wt) in enumerate(zip(shift_h, shift_c, weights)):
-        col[L.P_NODE_HEAT0 + k] = sh
-        col[L.P_NODE_COOL0 + k] = sc
-        col[L.P_NODE_WEIGHT0 + k] = wt
+        row[L.P_NODE_HEAT0 + k] = sh
+        row[L.P_NODE_COOL0 + k] = sc
+        row[L.P_NODE_WEIGHT0 + k] = wt
 
-    col[L.P_RHO_M] = w.resistivity_martensite_ohm_m
-    col[L.P_RHO_A] = w.resistivity_austenite_ohm_m
-    col[L.P_TCR_M] = w.resistivity_tcr_martensite_1_k
-    col[L.P_TCR_A] = w.resistivity_tcr_austenite_1_k
-    col[L.P_T_REF_R] = w.resistivity_reference_c
+    row[L.P_RHO_M] = w.resistivity_martensite_ohm_m
+    row[L.P_RHO_A] = w.resistivity_austenite_ohm_m
+    row[L.P_TCR_M] = w.resistivity_tcr_martensite_1_k
+    row[L.P_TCR_A] = w.resistivity_tcr_austenite_1_k
+    row[L.P_T_REF_R] = w.resistivity_reference_c
 
-    col[L.P_MASS] = m.moving_mass_kg
-    col[L.P_DAMPING] = m.damping_n_s_m
-    col[L.P_K_SPRING] = m.spring_stiffness_n_m
-    col[L.P_F_PRE] = m.spring_preload_n
-    col[L.P_SIGMA0] = p.rest_stress_pa
-    col[L.P_F_COULOMB] = fx.value("coulomb_friction", "force_n")
-    col[L.P_FRICTION_FORM] = FRICTION_STRIBECK if fx.form("coulomb_friction") == "stribeck" else FRICTION_COULOMB
+    row[L.P_MASS] = m.moving_mass_kg
+    row[L.P_DAMPING] = m.damping_n_s_m
+    row[L.P_K_SPRING] = m.spring_stiffness_n_m
+    row[L.P_F_PRE] = m.spring_preload_n
+    row[L.P_SIGMA0] = p.rest_stress_pa
+    row[L.P_F_COULOMB] = fx.value("coulomb_friction", "force_n")
+    row[L.P_FRICTION_FORM] = FRICTION_STRIBECK if fx.form("coulomb_friction") == "stribeck" else FRICTION_COULOMB
 
-    col[L.P_V_SUPPLY] = d.supply_voltage_v
-    col[L.P_R_SERIES] = fx.value("supply_sag", "series_resistance_ohm")
-    col[L.P_SAG_FORM] = SAG_QUADRATIC if fx.form("supply_sag") == "quadratic" else SAG_RESISTOR
-    col[L.P_SAG_I_REF] = d.supply_voltage_v / w.cold_resistance_ohm
+    row[L.P_V_SUPPLY] = d.supply_voltage_v
+    row[L.P_R_SERIES] = fx.value("supply_sag", "series_resistance_ohm")
+    row[L.P_SAG_FORM] = SAG_QUADRATIC if fx.form("supply_sag") == "quadratic" else SAG_RESISTOR
+    row[L.P_SAG_I_REF] = d.supply_voltage_v / w.cold_resistance_ohm
     period = 1.0 / d.pwm_frequency_hz if pwm_period_s is None else float(pwm_period_s)
-    col[L.P_PWM_PERIOD] = period
-    col[L.P_PWM_PHASE] = phase
-    col[L.P_DUTY_MAX] = duty_max
-    col[L.P_RESOLVED] = 1.0 if pwm_mode == "resolved" else 0.0
-    col[L.P_T_SETTLE] = d.settling_time_s
-    col[L.P_TAU_RISE] = fx.value("pulse_settling", "rise_time_constant_s")
-    col[L.P_RISE_FORM] = RISE_DELAY if fx.form("pulse_settling") == "delay" else RISE_EXPONENTIAL
-    col[L.P_EOT] = d.end_of_travel_m
-    col[L.P_EOT_RELEASE] = d.end_of_travel_release_m
+    row[L.P_PWM_PERIOD] = period
+    row[L.P_PWM_PHASE] = phase
+    row[L.P_DUTY_MAX] = duty_max
+    row[L.P_RESOLVED] = 1.0 if pwm_mode == "resolved" else 0.0
+    row[L.P_T_SETTLE] = d.settling_time_s
+    row[L.P_TAU_RISE] = fx.value("pulse_settling", "rise_time_constant_s")
+    row[L.P_RISE_FORM] = RISE_DELAY if fx.form("pulse_settling") == "delay" else RISE_EXPONENTIAL
+    row[L.P_EOT] = d.end_of_travel_m
+    row[L.P_EOT_RELEASE] = d.end_of_travel_release_m
 
     fc = s.position_filter_cutoff_hz
-    col[L.P_TAU_FILTER] = 1.0 / (2.0 * math.pi * fc) if fc > 0.0 else 0.0
-    col[L.P_TAU_LAG] = fx.value("sensor_lag", "time_constant_s")
-    col[L.P_LAG_ORDER] = 2.0 if fx.form("sensor_lag") == "second-order" else 1.0
-    col[L.P_ABBE] = fx.value("abbe_offset", "offset_m")
-    col[L.P_ABBE_FORM] = ABBE_WEAR if fx.form("abbe_offset") == "wear" else ABBE_STEP
-    col[L.P_POS_NOISE] = s.position_noise_std_m
-    col[L.P_POS_RESOLUTION] = s.position_resolution_m
-    col[L.P_R_NOISE] = s.resistance_noise_std_ohm
-    col[L.P_I_NOISE] = s.current_noise_std_a
-    col[L.P_V_NOISE] = s.voltage_noise_std_v
+    row[L.P_TAU_FILTER] = 1.0 / (2.0 * math.pi * fc) if fc > 0.0 else 0.0
+    row[L.P_TAU_LAG] = fx.value("sensor_lag", "time_constant_s")
+    row[L.P_LAG_ORDER] = 2.0 if fx.form("sensor_lag") == "second-order" else 1.0
+    row[L.P_ABBE] = fx.value("abbe_offset", "offset_m")
+    row[L.P_ABBE_FORM] = ABBE_WEAR if fx.form("abbe_offset") == "wear" else ABBE_STEP
+    row[L.P_POS_NOISE] = s.position_noise_std_m
+    row[L.P_POS_RESOLUTION] = s.position_resolution_m
+    row[L.P_R_NOISE] = s.resistance_noise_std_ohm
+    row[L.P_I_NOISE] = s.current_noise_std_a
+    row[L.P_V_NOISE] = s.voltage_noise_std_v
 
-    col[L.P_H_MAX] = max_substep_s
-    col[L.P_DT_MAX] = max_temperature_step_k
-    col[L.P_DX_MAX] = max_position_step_m
-    return col
+    row[L.P_H_MAX] = max_substep_s
+    row[L.P_DT_MAX] = max_temperature_step_k
+    row[L.P_DX_MAX] = max_position_step_m
+
+    row[L.P_STROKE] = p.usable_stroke_m
+    row[L.P_R_COLD] = w.cold_resistance_ohm
+    return row
 
 
 class Simulator:
@@ -176,7 +182,7 @@ class Simulator:
         A preset name, a model JSON path, a :class:`ModelConfig`, :class:`ActuatorParams`,
         or a sequence of these (one per actuator; then ``n`` may be omitted).
     n:
-        Number of actuators (columns) when ``model`` is a single model.
+        Number of actuators when ``model`` is a single model.
     control_period_s:
         Length of one :meth:`step` (the report's control loop runs at 1 kHz).
     pwm_mode:
@@ -187,7 +193,7 @@ class Simulator:
     pwm_slots:
         The general form of the above: one ``(period_s, phase, duty_max)`` per actuator.
         Actuators on one multiplexer do not interact (only one conducts at a time), so one
-        column with ``(1 / f_cycle, 0, 1 / n)`` simulates any actuator of an n-bank exactly;
+        actuator with ``(1 / f_cycle, 0, 1 / n)`` simulates any actuator of an n-bank exactly;
         this lets experiments batch many banks into one run.
     seed, rng:
         Randomness for sensor noise (only drawn when a noise level is non-zero).
@@ -254,7 +260,7 @@ class Simulator:
         self.max_temperature_step_k = max_temperature_step_k
         self.max_position_step_m = max_position_step_m
 
-        columns = []
+        packed = []
         cache: dict[int, np.ndarray] = {}
         self._accuracy = {
             "max_substep_s": max_substep_s,
@@ -264,7 +270,7 @@ class Simulator:
         for index, m in enumerate(models):
             if pwm_slots is not None:
                 period, phase, duty_max = pwm_slots[index]
-                col = pack_params(
+                row = pack_params(
                     m,
                     pwm_mode=pwm_mode,
                     pwm_period_s=period,
@@ -276,9 +282,9 @@ class Simulator:
                 key = id(m)
                 if key not in cache:
                     cache[key] = pack_params(m, pwm_mode=pwm_mode, **self._accuracy)
-                col = cache[key]
-            columns.append(col)
-        self.params = np.ascontiguousarray(np.stack(columns, axis=0))
+                row = cache[key]
+            packed.append(row)
+        self.params = np.ascontiguousarray(np.stack(packed, axis=0))
         self.state = np.zeros((self.n, L.N_STATE))
         self._has_noise = bool(
             np.any(self.params[:, [L.P_POS_NOISE, L.P_R_NOISE, L.P_I_NOISE, L.P_V_NOISE]] > 0.0)
@@ -296,48 +302,48 @@ class Simulator:
         ``temperature_c`` starts them at another temperature, still fully martensitic
         (must be below the stress-shifted A_s, i.e. a state the wire can rest in).
         """
-        cols = slice(None) if mask is None else np.asarray(mask)
-        if mask is not None and cols.dtype != bool and not np.issubdtype(cols.dtype, np.integer):
-            raise ValueError(f"mask has dtype {cols.dtype}: expected booleans or integer indices")
+        which = slice(None) if mask is None else np.asarray(mask)
+        if mask is not None and which.dtype != bool and not np.issubdtype(which.dtype, np.integer):
+            raise ValueError(f"mask has dtype {which.dtype}: expected booleans or integer indices")
         p = self.params
         s = self.state
-        t_amb = p[cols, L.P_T_AMB]
+        t_amb = p[which, L.P_T_AMB]
         if temperature_c is None:
             t0 = t_amb
         else:
             t0 = np.broadcast_to(np.asarray(temperature_c, dtype=float), np.shape(t_amb))
-            limit = p[cols, L.P_A_S] + p[cols, L.P_SIGMA0] / p[cols, L.P_C_A]
+            limit = p[which, L.P_A_S] + p[which, L.P_SIGMA0] / p[which, L.P_C_A]
             if not np.all(np.isfinite(t0)) or np.any(t0 > limit) or np.any(t0 < -60.0):
                 raise ValueError(
                     f"temperature_c = {temperature_c!r}: expected a finite value between -60 degC and the "
                     f"stress-shifted austenite start ({float(np.min(limit)):.1f} degC)"
                 )
-        s[cols, :] = 0.0
-        s[cols, L.S_T] = t0
-        s[cols, L.S_T_RESET] = t0
-        s[cols, L.S_XI] = 1.0
-        s[cols, L.S_XI_NODE0 : L.S_XI_NODE0 + L.MAX_SPREAD_NODES] = 1.0
-        s[cols, L.S_DIRECTION] = -1.0
-        abbe = np.where(p[cols, L.P_ABBE_FORM] > 0.5, 0.3, 1.0) * (-0.5 * p[cols, L.P_ABBE])
+        s[which, :] = 0.0
+        s[which, L.S_T] = t0
+        s[which, L.S_T_RESET] = t0
+        s[which, L.S_XI] = 1.0
+        s[which, L.S_XI_NODE0 : L.S_XI_NODE0 + L.MAX_SPREAD_NODES] = 1.0
+        s[which, L.S_DIRECTION] = -1.0
+        abbe = np.where(p[which, L.P_ABBE_FORM] > 0.5, 0.3, 1.0) * (-0.5 * p[which, L.P_ABBE])
         # Thermal expansion at a warm start lengthens the wire a little (x < 0).
-        x0 = np.zeros_like(t0) if temperature_c is None else self._rest_position(cols, t0)
-        s[cols, L.S_X] = x0
-        s[cols, L.S_SIGMA] = (p[cols, L.P_F_PRE] + p[cols, L.P_K_SPRING] * x0) / p[cols, L.P_AREA]
+        x0 = np.zeros_like(t0) if temperature_c is None else self._rest_position(which, t0)
+        s[which, L.S_X] = x0
+        s[which, L.S_SIGMA] = (p[which, L.P_F_PRE] + p[which, L.P_K_SPRING] * x0) / p[which, L.P_AREA]
         reading = x0 + abbe
-        s[cols, L.S_FILTER] = reading
-        s[cols, L.S_LAG1] = reading
-        s[cols, L.S_LAG2] = reading
-        s[cols, L.S_POS_MEAS] = reading
-        s[cols, L.S_R_MEAS] = np.nan
-        s[cols, L.S_I_MEAS] = np.nan
-        s[cols, L.S_V_MEAS] = np.nan
+        s[which, L.S_FILTER] = reading
+        s[which, L.S_LAG1] = reading
+        s[which, L.S_LAG2] = reading
+        s[which, L.S_POS_MEAS] = reading
+        s[which, L.S_R_MEAS] = np.nan
+        s[which, L.S_I_MEAS] = np.nan
+        s[which, L.S_V_MEAS] = np.nan
         # The first PWM period of actuator j starts after phase_j * period.
-        s[cols, L.S_PWM_TAU] = (1.0 - p[cols, L.P_PWM_PHASE]) * p[cols, L.P_PWM_PERIOD]
-        s[cols, L.S_R_TRUE] = wire_resistance(
-            x0, 1.0, t0, p[cols, L.P_RHO_M], p[cols, L.P_RHO_A], p[cols, L.P_TCR_M], p[cols, L.P_TCR_A],
-            p[cols, L.P_T_REF_R], p[cols, L.P_LENGTH], p[cols, L.P_AREA],
+        s[which, L.S_PWM_TAU] = (1.0 - p[which, L.P_PWM_PHASE]) * p[which, L.P_PWM_PERIOD]
+        s[which, L.S_R_TRUE] = wire_resistance(
+            x0, 1.0, t0, p[which, L.P_RHO_M], p[which, L.P_RHO_A], p[which, L.P_TCR_M], p[which, L.P_TCR_A],
+            p[which, L.P_T_REF_R], p[which, L.P_LENGTH], p[which, L.P_AREA],
         )
-        s[cols, L.S_FORCE] = p[cols, L.P_F_PRE] + p[cols, L.P_K_SPRING] * x0
+        s[which, L.S_FORCE] = p[which, L.P_F_PRE] + p[which, L.P_K_SPRING] * x0
 
     def set_model(self, index: int, model: ModelSpec) -> None:
         """Give actuator ``index`` another model (e.g. a randomised condition at an env reset).
@@ -347,13 +353,13 @@ class Simulator:
         m = load_model(model)
         if self._slots is not None:
             period, phase, duty_max = self._slots[index]
-            col = pack_params(
+            row = pack_params(
                 m, pwm_mode=self.pwm_mode, pwm_period_s=period, phase=phase, duty_max=duty_max, **self._accuracy
             )
         else:
-            col = pack_params(m, pwm_mode=self.pwm_mode, **self._accuracy)
+            row = pack_params(m, pwm_mode=self.pwm_mode, **self._accuracy)
         self.models[index] = m
-        self.params[index] = col
+        self.params[index] = row
         self._has_noise = bool(np.any(self.params[:, [L.P_POS_NOISE, L.P_R_NOISE, L.P_I_NOISE, L.P_V_NOISE]] > 0.0))
 
     @property
@@ -361,13 +367,13 @@ class Simulator:
         """True if any actuator's sensors are noisy (then each step draws from ``rng``)."""
         return self._has_noise
 
-    def _rest_position(self, cols, t0: np.ndarray) -> np.ndarray:
+    def _rest_position(self, which, t0: np.ndarray) -> np.ndarray:
         """Static position of a martensitic wire at temperature t0 (thermal expansion only)."""
         p = self.params
-        area, length, d_m = p[cols, L.P_AREA], p[cols, L.P_LENGTH], p[cols, L.P_D_M]
-        strain = -p[cols, L.P_ALPHA_TH] * (t0 - p[cols, L.P_T_AMB])
+        area, length, d_m = p[which, L.P_AREA], p[which, L.P_LENGTH], p[which, L.P_D_M]
+        strain = -p[which, L.P_ALPHA_TH] * (t0 - p[which, L.P_T_AMB])
         # k x + F_pre = A (sigma0 + D_M (strain - x / l0))
-        return area * d_m * strain / (p[cols, L.P_K_SPRING] + area * d_m / length)
+        return area * d_m * strain / (p[which, L.P_K_SPRING] + area * d_m / length)
 
     def step(self, duty: float | np.ndarray) -> None:
         """Advance one control step with the given duty cycle(s) (clipped to [0, duty_max]).
@@ -403,7 +409,7 @@ class Simulator:
         """
         if noise is None:
             noise = self.rng.standard_normal((1, 4, self.n)) if self._has_noise else _NO_NOISE
-        advance(self.state, self.params, duty_2d, self.control_period_s, noise, _NO_RECORD, _NO_ROWS)
+        advance(self.state, self.params, duty_2d, self.control_period_s, noise, _NO_RECORD, _NO_FIELDS)
 
     def run(
         self,
@@ -425,16 +431,11 @@ class Simulator:
             bad = np.argwhere(~np.isfinite(arr))[0]
             raise ValueError(f"duty[{bad[0]}] = {arr[tuple(bad)]!r}: expected finite values in [0, 1]")
         names = list(dict.fromkeys(["time_s", *record]))
-        rows = []
-        for name in names:
-            if name not in L.STATE_ROWS:
-                raise ValueError(f"record = {name!r}: expected one of {sorted(L.STATE_ROWS)}")
-            rows.append(L.STATE_ROWS[name])
-        rows_arr = np.asarray(rows, dtype=np.int64)
+        fields = np.asarray(_fields_of(names, "record"), dtype=np.int64)
         n_steps = arr.shape[0]
-        out = np.empty((n_steps, len(rows), self.n))
+        out = np.empty((n_steps, len(fields), self.n))
         noise = self.rng.standard_normal((n_steps, 4, self.n)) if self._has_noise else _NO_NOISE
-        advance(self.state, self.params, np.ascontiguousarray(arr), self.control_period_s, noise, out, rows_arr)
+        advance(self.state, self.params, np.ascontiguousarray(arr), self.control_period_s, noise, out, fields)
         return {name: out[:, j, :] for j, name in enumerate(names)}
 
     # ------------------------------------------------------------------------------------
@@ -509,8 +510,49 @@ class Simulator:
         return self.state[:, L.S_DUTY_CMD]
 
     @property
+    def end_of_travel_cut(self) -> np.ndarray:
+        """True where the driver's end-of-travel cut holds the power off (a new bool array)."""
+        return self.state[:, L.S_EOT_CUT] > 0.5
+
+    def read(self, names: Sequence[str]) -> dict[str, np.ndarray]:
+        """Copies of the named state quantities (names of :data:`RECORDABLE`), each shape (n,)."""
+        return {name: self.state[:, field].copy() for name, field in zip(names, _fields_of(names, "names"))}
+
+    def read_actuator(self, index: int, names: tuple[str, ...]) -> dict[str, float]:
+        """The named state quantities of actuator ``index`` as Python floats.
+
+        One conversion of the actuator's state row and a getter cached per ``names``: cheap
+        enough for every env step.
+        """
+        getter = _GETTERS.get(names)
+        if getter is None:
+            fields = _fields_of(names, "names")
+            # itemgetter of one field returns the value, not a 1-tuple
+            getter = _GETTERS[names] = (lambda row, f=fields[0]: (row[f],)) if len(fields) == 1 else itemgetter(*fields)
+        return dict(zip(names, getter(self.state[index].tolist())))
+
+    # ------------------------------------------------------------------------------------
+    # Views of the parameters (shape (n,))
+    # ------------------------------------------------------------------------------------
+    @property
     def duty_max(self) -> np.ndarray:
+        """Largest duty each actuator may get (1 / n when multiplexed)."""
         return self.params[:, L.P_DUTY_MAX]
+
+    @property
+    def usable_stroke_m(self) -> np.ndarray:
+        """Usable stroke [m] (:attr:`~sma_gym.params.ActuatorParams.usable_stroke_m`)."""
+        return self.params[:, L.P_STROKE]
+
+    @property
+    def cold_resistance_ohm(self) -> np.ndarray:
+        """Resistance of the cold, extended wire [ohm] (:attr:`~sma_gym.params.Wire.cold_resistance_ohm`)."""
+        return self.params[:, L.P_R_COLD]
+
+    @property
+    def supply_voltage_v(self) -> np.ndarray:
+        """Driver supply voltage [V]."""
+        return self.params[:, L.P_V_SUPPLY]
 
     def energy_balance(self) -> dict[str, np.ndarray]:
         """Energy accounts since reset [J], one value per actuator.
@@ -541,4 +583,16 @@ class Simulator:
         return out
 
 
-RECORDABLE = tuple(sorted(L.STATE_ROWS))
+RECORDABLE = tuple(sorted(L.STATE_FIELDS))
+"""Names of the state quantities :meth:`Simulator.run` records and :meth:`Simulator.read` reads."""
+
+
+_GETTERS: dict[tuple[str, ...], Callable[[list[float]], tuple[float, ...]]] = {}
+
+
+def _fields_of(names: Sequence[str], what: str) -> list[int]:
+    """Layout indices of named state quantities; an unknown name raises ``ValueError``."""
+    try:
+        return [L.STATE_FIELDS[name] for name in names]
+    except KeyError as err:
+        raise ValueError(f"{what} contains {err.args[0]!r}: expected names from {sorted(L.STATE_FIELDS)}") from None

@@ -11,10 +11,9 @@ from gymnasium.utils.env_checker import check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import sma_gym
-import sma_gym.core.layout
 from sma_gym import ModelConfig, preset
 from sma_gym.envs.sb3 import SB3VecEnv
-from sma_gym.envs.task import FEATURES, SELF_SENSING, TRACKING
+from sma_gym.envs.task import FEATURES, OBS_POSITION, OBS_SELF_SENSING
 
 IDS = sma_gym.ENV_IDS
 SINGLE_ACTUATOR_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0")
@@ -99,14 +98,14 @@ def test_action_maps_affinely_onto_the_allowed_duty_range():
 def test_self_sensing_sees_no_position_and_can_always_read_resistance():
     env = make("SMASelfSensing-v0")
     assert "position" not in env.unwrapped.feature_names and "error" not in env.unwrapped.feature_names
-    assert env.unwrapped.feature_names == FEATURES[SELF_SENSING]
+    assert env.unwrapped.feature_names == FEATURES[OBS_SELF_SENSING]
     env.reset(seed=0)
     rng = np.random.default_rng(0)
     cut_steps = 0
     for _ in range(600):
         obs, reward, _, _, info = env.step(rng.uniform(-1, 1, size=(1,)).astype(np.float32))
         assert 0.05 <= info["duty"] <= 0.8
-        cut = env.unwrapped.sim.state[0, sma_gym.core.layout.S_EOT_CUT] > 0.5
+        cut = bool(env.unwrapped.sim.end_of_travel_cut[0])
         cut_steps += cut
         # Readable whenever current flows: only the end-of-travel cut stops it.
         assert info["resistance_valid"] == (not cut)
@@ -217,11 +216,9 @@ def test_robust_env_draws_conditions_from_its_ranges_and_reports_them():
         assert 5.0 <= c["supply_voltage_v"] <= 15.0
         assert 0.2e-3 <= c["wire_diameter_m"] <= 0.5e-3
         seen.add(c["convection"])
-        sim_p = env.unwrapped.sim.params[0]
-        from sma_gym.core import layout as L
-
-        assert sim_p[L.P_V_SUPPLY] == pytest.approx(c["supply_voltage_v"])
-        assert sim_p[L.P_AREA] == pytest.approx(np.pi * c["wire_diameter_m"] ** 2 / 4)
+        sim = env.unwrapped.sim
+        assert sim.supply_voltage_v[0] == pytest.approx(c["supply_voltage_v"])
+        assert sim.models[0].actuator.wire.diameter_m == pytest.approx(c["wire_diameter_m"])
     assert seen == {"natural", "forced"}
     fixed = make("SMARobust-v0", supply_voltage_v=15.0, convection="forced", wire_diameter_m=0.5e-3, spread=0.0)
     fixed.reset(seed=5)
@@ -233,7 +230,7 @@ def test_robust_env_draws_conditions_from_its_ranges_and_reports_them():
 def test_multiplexed_env_caps_each_actuator_at_one_nth_and_tracks_each_reference():
     env = make("SMAMultiplexed-v0", n_actuators=8, cycling_frequency_hz=2000.0)
     obs, info = env.reset(seed=0)
-    assert obs.shape == (8 * len(FEATURES[TRACKING]),) and env.action_space.shape == (8,)
+    assert obs.shape == (8 * len(FEATURES[OBS_POSITION]),) and env.action_space.shape == (8,)
     assert len({str(r) for r in env.unwrapped.reference_description()}) == 8
     _, _, _, _, info = env.step(np.ones(8, dtype=np.float32))
     assert np.allclose(info["duty"], 1.0 / 8)
@@ -335,3 +332,97 @@ def test_sb3_trains_on_the_native_vector_env_through_the_adapter():
                 assert info["terminal_observation"].shape == obs.shape[1:]
                 assert info["TimeLimit.truncated"] is True
     assert ends == 8
+
+
+# --------------------------------------------------------------------------------------
+# The contract on the class (Gymnasium's sections) and one definition per quantity
+# --------------------------------------------------------------------------------------
+def _env_classes():
+    from sma_gym.envs.multiplexed import SMAMultiplexedEnv
+    from sma_gym.envs.single import SMARobustEnv, SMASelfSensingEnv, SMATrackingEnv
+    from sma_gym.envs.vector import SMAVectorEnv
+
+    return {
+        "SMATracking-v0": SMATrackingEnv,
+        "SMASelfSensing-v0": SMASelfSensingEnv,
+        "SMARobust-v0": SMARobustEnv,
+        "SMAMultiplexed-v0": SMAMultiplexedEnv,
+        "vector": SMAVectorEnv,
+    }
+
+
+@pytest.mark.parametrize("key", ["SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0", "SMAMultiplexed-v0", "vector"])
+def test_every_env_class_documents_its_contract_in_gymnasiums_sections(key):
+    import inspect
+
+    from sma_gym.envs.docs import SECTIONS
+
+    cls = _env_classes()[key]
+    doc = inspect.getdoc(cls)
+    positions = [doc.find(f"## {title}\n") for title in SECTIONS]
+    assert all(p > 0 for p in positions) and positions == sorted(positions), positions
+    # The accepted keyword arguments are in the signature, not behind **kwargs only.
+    params = inspect.signature(cls).parameters
+    for name in ("model", "control_period_s", "reference", "energy_weight", "overheat_limit_c", "render_mode"):
+        assert name in params and name in doc, name
+    if key == "SMARobust-v0":
+        assert {"supply_voltage_v", "convection", "wire_diameter_m", "spread"} <= set(params)
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_the_documented_feature_table_is_the_observation_space(env_id):
+    """The docstring's table is generated from the one definition of the bounds: it lists
+    exactly the env's features, in order, with the Box's bounds."""
+    import inspect
+
+    env = make(env_id).unwrapped
+    rows = [line.split("|")[1:-1] for line in inspect.getdoc(type(env)).splitlines() if line.startswith("| ") and "`" in line]
+    names = tuple(r[1].strip().strip("`") for r in rows)
+    assert names == env.feature_names
+    per_actuator = len(env.feature_names)
+    low = env.observation_space.low[:per_actuator]
+    high = env.observation_space.high[:per_actuator]
+    assert [float(r[3]) for r in rows] == low.tolist()
+    assert [float(r[4]) for r in rows] == high.tolist()
+
+
+def test_info_keys_are_the_documented_ones_in_every_env():
+    from sma_gym.envs.conditions import CONDITION_INFO
+    from sma_gym.envs.task import INFO
+
+    for env_id in IDS:
+        env = make(env_id)
+        _, reset_info = env.reset(seed=0)
+        _, _, _, _, step_info = env.step(env.action_space.sample())
+        expected = set(INFO) | (set(CONDITION_INFO) if env_id == "SMARobust-v0" else set())
+        assert set(reset_info) == set(step_info) == expected, env_id
+    venv = gym.make_vec("sma_gym:SMARobust-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    _, info = venv.reset(seed=0)
+    assert {k for k in info if not k.startswith("_")} == set(INFO) | set(CONDITION_INFO)
+
+
+def test_duty_range_maps_floats_and_arrays_alike_and_inverts():
+    from sma_gym.envs.task import DutyRange
+
+    duty_range = DutyRange(0.05, 0.8)
+    actions = np.array([-3.0, -1.0, -0.3, 0.0, 0.7, 1.0, 2.0])
+    duties = duty_range.duty_for(actions)
+    assert duties.tolist() == [duty_range.duty_for(float(a)) for a in actions]
+    assert duties[0] == duties[1] == 0.05 and duties[-1] == duties[-2] == pytest.approx(0.8)
+    inside = actions[1:-1]
+    assert np.allclose(duty_range.action_for(duty_range.duty_for(inside)), inside)
+    lo, hi = duty_range  # still a (low, high) tuple
+    assert (lo, hi) == (0.05, 0.8)
+
+
+def test_scales_are_the_parameters_definitions():
+    """Stroke and cold resistance have one definition each (params.py), whatever the driver."""
+    no_cut = ModelConfig(preset("standard").with_changes(**{"driver.end_of_travel_m": float("inf")}))
+    for model in ("standard", no_cut):
+        env = make("SMATracking-v0", model=model).unwrapped
+        p = env.settings.model.actuator
+        assert env.position_scale_m == p.usable_stroke_m
+        assert env.resistance_scale_ohm == p.wire.cold_resistance_ohm
+    assert no_cut.actuator.usable_stroke_m == no_cut.actuator.wire.max_stroke_m
+    venv = gym.make_vec("sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="vector_entry_point", model=no_cut)
+    assert venv.unwrapped.position_scale_m.tolist() == [no_cut.actuator.wire.max_stroke_m] * 2

@@ -3,7 +3,7 @@
 One function, :func:`advance`, serves every user: a single env (n = 1, one step per call),
 the multiplexer (n actuators with phase-shifted PWM), a vector env of thousands, and the
 batched parameter sweeps of model fitting (many steps per call, outputs recorded). Each
-actuator has its own column of parameters, so actuators in one call may differ in every
+actuator has its own row of parameters, so actuators in one call may differ in every
 respect. It is compiled with numba: the per-actuator logic (hysteresis, root finding,
 PWM edges, friction sticking) branches too much for whole-array numpy to be fast, and an
 env step has to cost about as much as a Gymnasium classic-control step.
@@ -462,8 +462,8 @@ def _control_step(
 
 
 @njit(cache=True, error_model="numpy")
-def advance(state, params, duty, dt, noise, record, record_rows):
-    """Advance every actuator (column) by ``duty.shape[0]`` control steps of ``dt`` seconds.
+def advance(state, params, duty, dt, noise, record, record_fields):
+    """Advance every actuator by ``duty.shape[0]`` control steps of ``dt`` seconds.
 
     Parameters
     ----------
@@ -472,15 +472,15 @@ def advance(state, params, duty, dt, noise, record, record_rows):
     duty : (n_steps, n) float64, commanded duty per step (clipped to [0, DUTY_MAX]).
     noise : (n_steps, 4, n) standard normals for the position, resistance, current and
         voltage readings, or an array with n_steps = 0 for noise-free sensors.
-    record : (n_steps, len(record_rows), n) filled with the state rows after each step, or
+    record : (n_steps, len(record_fields), n) filled with the state fields after each step, or
         an array with n_steps = 0 to record nothing.
-    record_rows : int64 array of state rows to record.
+    record_fields : int64 array of state fields (layout indices) to record.
     """
     n = state.shape[0]
     n_steps = duty.shape[0]
     have_noise = noise.shape[0] > 0
     have_record = record.shape[0] > 0
-    n_rec = record_rows.shape[0]
+    n_rec = record_fields.shape[0]
     shift_h = np.empty(MAX_SPREAD_NODES)
     shift_c = np.empty(MAX_SPREAD_NODES)
     weights = np.empty(MAX_SPREAD_NODES)
@@ -511,4 +511,4 @@ def advance(state, params, duty, dt, noise, record, record_rows):
             )
             if have_record:
                 for j in range(n_rec):
-                    record[s, j, i] = state[i, record_rows[j]]
+                    record[s, j, i] = state[i, record_fields[j]]

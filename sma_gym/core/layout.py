@@ -1,11 +1,52 @@
-"""Row layout of the simulator core's state and parameter matrices.
+"""Field layout of the simulator core's state and parameter matrices.
 
-The core works on two float64 matrices with one column per actuator:
-``state[S_*, i]`` and ``params[P_*, i]``. Keeping everything in two contiguous arrays
-makes a call into the compiled kernel cheap (two arrays to unbox instead of forty) and
-lets every actuator carry its own parameters: one env, a multiplexed bank, a vector env of
-thousands with randomised conditions, or a batch of candidate models in a fit all use the
-same code. The integer constants below are compile-time constants for numba.
+The core works on two float64 matrices with one row per actuator (actuator-major):
+``state[i, S_*]`` and ``params[i, P_*]``. Keeping everything in two contiguous arrays
+makes a call into the compiled kernel cheap (two arrays to unbox instead of forty), keeps
+each actuator's data together in memory, and lets every actuator carry its own parameters:
+one env, a multiplexed bank, a vector env of thousands with randomised conditions, or a
+batch of candidate models in a fit all use the same code. The integer constants below are
+compile-time constants for numba.
+
+Only compiled code and :class:`sma_gym.simulator.Simulator` index these matrices. Everyone
+else reads the simulator's named views (``sim.position_m``, ``sim.usable_stroke_m``, ...,
+each an array over actuators) or :meth:`~sma_gym.simulator.Simulator.read` by the names in
+:data:`STATE_NAMES`.
+
+How to add a parameter
+----------------------
+1. ``sma_gym/params.py``: a field with a default and a docstring (symbol, unit, value,
+   source) on the part it belongs to (:class:`~sma_gym.params.Wire`, ``Driver``, ...), and
+   its range in that part's ``validate()``. JSON round trip, presets and
+   ``with_changes("part.field")`` follow from the dataclass.
+2. This module: a ``P_*`` constant (append it before ``N_PARAMS``; nothing depends on the
+   order). Derived quantities (areas, time constants, scaled coefficients) get their own
+   constant and are computed once at packing time, not in the kernel.
+3. ``sma_gym/simulator.py`` :func:`~sma_gym.simulator.pack_params`: one line
+   ``col[L.P_NEW] = <part>.<field>`` (or the derived value).
+4. Compiled code: read ``params[i, P_NEW]`` where the term is computed (``core/kernel.py``
+   reads parameters into locals and passes them to the ``physics``/``electrical`` functions,
+   which take scalars so they can be tested on their own). Import the constant by name.
+5. Delete the numba cache (``find . -name '*.nbi' -o -name '*.nbc' | xargs rm``): modules
+   that import layout constants keep the old values in their cached machine code.
+6. If an env or user should see it: a named view on ``Simulator`` (parameters) or a name
+   in :data:`STATE_NAMES` (state; then it is recordable by ``Simulator.run`` too).
+
+How to add an effect
+--------------------
+An effect is an optional term that is off (vanishes) at its *off* value.
+
+1. ``sma_gym/effects/__init__.py``: declare it (name, parameters with unit, off value,
+   bounds, forms, the outputs it changes). The diagnosis workflow picks it up as a
+   candidate from there.
+2. Its parameters go through steps 2-4 above; in :func:`~sma_gym.simulator.pack_params`
+   read them with ``fx.value("<effect>", "<parameter>")`` and, if it has several forms,
+   turn ``fx.form("<effect>")`` into a numeric ``P_*_FORM`` code (the codes are constants
+   of the physics module that implements the term, e.g. ``FRICTION_STRIBECK``).
+3. Write the term in the physics module it belongs to so that the off value makes it
+   vanish exactly (the report's model must stay bit for bit the same), and test that.
+4. A new state quantity (a filter stage, an accumulator): an ``S_*`` constant below, its
+   start value in ``Simulator.reset``, and step 5 above.
 """
 
 from __future__ import annotations
@@ -13,7 +54,7 @@ from __future__ import annotations
 MAX_SPREAD_NODES = 7
 
 # --------------------------------------------------------------------------------------
-# State rows
+# State fields: state[i, S_*] of actuator i
 # --------------------------------------------------------------------------------------
 S_X = 0  # position (contraction) x [m]
 S_V = 1  # velocity x' [m/s]
@@ -69,10 +110,12 @@ STATE_NAMES = {
     S_EOT_CUT: "end_of_travel_cut",
     S_E_LATENT: "latent_heat_released_j",
 }
-STATE_ROWS = {name: row for row, name in STATE_NAMES.items()}
+"""Public names of the state fields (the simulator's view names, ``Simulator.run`` records)."""
+STATE_FIELDS = {name: index for index, name in STATE_NAMES.items()}
 
 # --------------------------------------------------------------------------------------
-# Parameter rows (all SI; derived quantities are precomputed at packing time)
+# Parameter fields: params[i, P_*] of actuator i (all SI; derived quantities are
+# precomputed at packing time)
 # --------------------------------------------------------------------------------------
 # wire geometry and thermal mass
 P_AREA = 0  # A [m^2]
@@ -148,6 +191,9 @@ P_V_NOISE = _NODE_END + 34  # [V]
 P_H_MAX = _NODE_END + 35  # largest integration sub-step [s]
 P_DT_MAX = _NODE_END + 36  # largest temperature change per sub-step [K]
 P_DX_MAX = _NODE_END + 37  # largest position change per sub-step [m]
-N_PARAMS = P_DX_MAX + 1
+# derived, for the task layer (observation scales, reward); unused by the physics
+P_STROKE = _NODE_END + 38  # usable stroke [m] (ActuatorParams.usable_stroke_m)
+P_R_COLD = _NODE_END + 39  # cold resistance [ohm] (Wire.cold_resistance_ohm)
+N_PARAMS = P_R_COLD + 1
 
-PARAM_ROWS = {name[2:].lower(): row for name, row in list(globals().items()) if name.startswith("P_")}
+PARAM_FIELDS = {name[2:].lower(): index for name, index in list(globals().items()) if name.startswith("P_")}

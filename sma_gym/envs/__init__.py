@@ -9,6 +9,12 @@ SMAMultiplexed-v0  1-16 actuators on one PWM swept at 100-4000 Hz, each with its
 SMARobust-v0       tracking under randomised chapter-7 conditions (supply, fan, diameter)
 ================== =========================================================================
 
+Each env's contract (spaces, reward, episode end, ``info``, arguments, version history) is
+the docstring of its class: :class:`~sma_gym.envs.single.SMATrackingEnv`,
+:class:`~sma_gym.envs.single.SMASelfSensingEnv`, :class:`~sma_gym.envs.single.SMARobustEnv`,
+:class:`~sma_gym.envs.multiplexed.SMAMultiplexedEnv` and the vector env
+:class:`~sma_gym.envs.vector.SMAVectorEnv` (``help(env.unwrapped)``).
+
 ``gymnasium.make("sma_gym:SMATracking-v0")`` works in a fresh interpreter (the ``module:``
 prefix imports ``sma_gym``, which registers the ids), and ``env.spec.id`` keeps that form,
 so a logged id can be made again anywhere. All four entry points live in
@@ -61,9 +67,9 @@ def register_envs() -> None:
     """Register the four ids (skipping ids already registered, e.g. on a second import)."""
     entry = "sma_gym.envs.sma_gym_envs:"
     specs = (
-        ("SMATracking-v0", "tracking", "tracking_vector"),
-        ("SMASelfSensing-v0", "self_sensing", "self_sensing_vector"),
-        ("SMARobust-v0", "robust", "robust_vector"),
+        ("SMATracking-v0", "SMATrackingEnv", "tracking_vector"),
+        ("SMASelfSensing-v0", "SMASelfSensingEnv", "self_sensing_vector"),
+        ("SMARobust-v0", "SMARobustEnv", "robust_vector"),
         ("SMAMultiplexed-v0", "SMAMultiplexedEnv", None),
     )
     for env_id, single, vector in specs:

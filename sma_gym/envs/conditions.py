@@ -13,7 +13,7 @@ resistivity +-5 % (``spread`` scales all of these; 0 switches them off).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any, Sequence
 
 import numpy as np
@@ -40,7 +40,12 @@ def _as_range(name: str, value: Any, lower: float, upper: float, unit: str) -> t
 
 @dataclass(frozen=True)
 class Conditions:
-    """Ranges (or fixed values) of the randomised conditions."""
+    """Ranges (or fixed values) of the randomised conditions.
+
+    The field defaults are the robustness env's defaults (the one place they are defined):
+    supply 5-15 V (§7.2), natural or forced convection (§7.1), 0.2-0.5 mm wire (§7.3) and
+    the full parameter spread.
+    """
 
     supply_voltage_v: tuple[float, float] = (5.0, 15.0)
     convection: tuple[str, ...] = CONVECTIONS
@@ -50,23 +55,29 @@ class Conditions:
     @classmethod
     def from_kwargs(
         cls,
-        supply_voltage_v: Any = (5.0, 15.0),
-        convection: Any = "random",
-        wire_diameter_m: Any = (0.2e-3, 0.5e-3),
-        spread: Any = 1.0,
+        supply_voltage_v: Any = None,
+        convection: Any = None,
+        wire_diameter_m: Any = None,
+        spread: Any = None,
     ) -> "Conditions":
-        """Validate env kwargs: numbers fix a condition, (low, high) pairs randomise it."""
-        if convection == "random":
-            conv: tuple[str, ...] = CONVECTIONS
+        """Validate env kwargs: numbers fix a condition, (low, high) pairs randomise it,
+        ``convection`` is ``"natural"``, ``"forced"`` or ``"random"``; ``None`` keeps the default."""
+        default = cls()
+        if convection is None or convection == "random":
+            conv: tuple[str, ...] = default.convection if convection is None else CONVECTIONS
         elif convection in CONVECTIONS:
             conv = (convection,)
         else:
             raise ValueError(f"convection = {convection!r}: expected 'natural', 'forced' or 'random'")
         return cls(
-            supply_voltage_v=_as_range("supply_voltage_v", supply_voltage_v, 1.0, 30.0, "V"),
+            supply_voltage_v=default.supply_voltage_v
+            if supply_voltage_v is None
+            else _as_range("supply_voltage_v", supply_voltage_v, 1.0, 30.0, "V"),
             convection=conv,
-            wire_diameter_m=_as_range("wire_diameter_m", wire_diameter_m, 0.05e-3, 1.0e-3, "m"),
-            spread=require_range("spread", spread, 0.0, 3.0),
+            wire_diameter_m=default.wire_diameter_m
+            if wire_diameter_m is None
+            else _as_range("wire_diameter_m", wire_diameter_m, 0.05e-3, 1.0e-3, "m"),
+            spread=default.spread if spread is None else require_range("spread", spread, 0.0, 3.0),
         )
 
     def draw(self, base: ModelConfig, rng: np.random.Generator) -> tuple[ModelConfig, dict[str, Any]]:
@@ -115,18 +126,22 @@ class Conditions:
         return replace(base, actuator=actuator), condition
 
 
-CONDITION_INFO_KEYS = (
-    "condition_supply_voltage_v",
-    "condition_forced_convection",
-    "condition_wire_diameter_m",
-    "condition_convection_scale",
-    "condition_transformation_shift_k",
-    "condition_strain_scale",
-    "condition_preload_scale",
-    "condition_resistivity_scale",
-)
-"""The ``info`` keys of a drawn condition: the same for every draw, so batched clients
-(vector envs, TorchRL) can stack them."""
+CONDITION_KWARGS = tuple(f.name for f in fields(Conditions))
+"""The env kwargs that set the randomised conditions (only the robustness env takes them)."""
+
+CONDITION_INFO = {
+    "condition_supply_voltage_v": "supply voltage [V]",
+    "condition_forced_convection": "forced (True) or natural convection (bool)",
+    "condition_wire_diameter_m": "wire diameter [m]",
+    "condition_convection_scale": "spread factor of the convection coefficient [-]",
+    "condition_transformation_shift_k": "shift of the transformation temperatures [K]",
+    "condition_strain_scale": "factor of the recoverable strain [-]",
+    "condition_preload_scale": "factor of the spring preload [-]",
+    "condition_resistivity_scale": "factor of the resistivities [-]",
+}
+"""The ``info`` entries of a drawn condition: the same keys for every draw, so batched
+clients (vector envs, TorchRL) can stack them."""
+CONDITION_INFO_KEYS = tuple(CONDITION_INFO)
 
 
 def condition_info(condition: dict[str, Any]) -> dict[str, float | bool]:

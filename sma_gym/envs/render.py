@@ -94,8 +94,8 @@ class EpisodePlot:
     def frame(self, history: EpisodeHistory, title: str, labels: Sequence[str] | None = None) -> np.ndarray:
         """The history as an (H, W, 3) uint8 array."""
         h = history.arrays()
-        columns = {k: v.reshape(len(v), -1) for k, v in h.items() if k != "t"}
-        n = columns["position"].shape[1] if len(h["t"]) else 1
+        per_actuator = {k: v.reshape(len(v), -1) for k, v in h.items() if k != "t"}
+        n = per_actuator["position"].shape[1] if len(h["t"]) else 1
         key = (title, n, tuple(labels or ()))
         if key != self._key:
             self._setup(title, n, labels)
@@ -103,7 +103,7 @@ class EpisodePlot:
         t = h["t"]
         limits = [_grown(self._limits[0], 0.0, float(t[-1]) if len(t) else 0.0, 1.0)]
         for ax_fields, (_, _, scale, floor), old in zip(self._fields(), self._AXES, self._limits[1:]):
-            data = [columns[f] for f in ax_fields]
+            data = [per_actuator[f] for f in ax_fields]
             if len(t):
                 low = min(float(np.nanmin(d)) for d in data) * scale
                 high = max(float(np.nanmax(d)) for d in data) * scale
@@ -112,7 +112,7 @@ class EpisodePlot:
                 limits.append(old)
         for name, lines in self._lines.items():
             for j, line in enumerate(lines):
-                line.set_data(t, columns[name][:, j] * self._scale(name))
+                line.set_data(t, per_actuator[name][:, j] * self._scale(name))
         if limits != self._limits or self._background is None:
             self._limits = limits
             self.axes[0].set_xlim(*limits[0])
@@ -222,3 +222,59 @@ class Renderer:
             plt.close(self._window.figure)
             self._window = None
         self._plot = None
+
+
+class EpisodeRendering:
+    """``render()`` and ``close()`` of the single and the multiplexed env (a mixin).
+
+    The env sets ``sim`` (a :class:`~sma_gym.Simulator`), ``task`` (its task state) and
+    ``_ref`` (the references of the last step) and calls :meth:`_init_rendering` when it is
+    made, :meth:`_start_rendering` after a reset and :meth:`_rendered_step` after a step.
+    Every actuator of ``sim`` is drawn, each in its own colour.
+    """
+
+    metadata: dict[str, Any]
+    render_mode: str | None
+    _renderer: Renderer
+
+    def _init_rendering(self, render_mode: str | None, control_period_s: float) -> None:
+        self._renderer = Renderer(render_mode, self.metadata["render_modes"])
+        self.render_mode = render_mode
+        self.metadata = dict(self.metadata, render_fps=max(1, round(1.0 / control_period_s)))
+
+    def _start_rendering(self) -> None:
+        self._renderer.reset()
+        self._record()
+
+    def _rendered_step(self) -> None:
+        self._record()
+        if self.render_mode == "human":
+            self.render()
+
+    def _record(self) -> None:
+        if self.render_mode is None:
+            return  # nothing is drawn: skip building the sample (it is on every step's path)
+        sim = self.sim  # type: ignore[attr-defined]
+        self._renderer.record(
+            t=sim.time_s[0],
+            position=sim.position_m,
+            reference=self._ref,  # type: ignore[attr-defined]
+            duty=sim.duty_applied,
+            resistance=self.task.held[:, 0],  # type: ignore[attr-defined]
+            temperature=sim.temperature_c,
+        )
+
+    def _render_title(self) -> str:
+        raise NotImplementedError
+
+    def _render_labels(self) -> list[str] | None:
+        """Legend label of each actuator (``None``: no legend entries per actuator)."""
+        return None
+
+    def render(self) -> np.ndarray | None:
+        """``rgb_array``: the episode so far as a (640, 640, 3) uint8 frame; ``human``: show it."""
+        return self._renderer.render(self._render_title(), self._render_labels())
+
+    def close(self) -> None:
+        """Close the human-mode window, if any, and drop the figure."""
+        self._renderer.close()

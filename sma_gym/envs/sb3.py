@@ -16,7 +16,8 @@ It also does what SB3's ``Monitor`` does: at the end of an episode ``infos[i]["e
 holds ``{"r": return, "l": length, "t": seconds since the adapter was made}``, so SB3 logs
 ``rollout/ep_rew_mean`` and ``evaluate_policy`` counts whole episodes without a warning
 (``env_is_wrapped(Monitor)`` is true); no ``VecMonitor`` is needed on top.
-``infos[i]`` carries the step's state (``position_m``, ``reference_m``, ...; of the ended
+``infos[i]`` carries the env's ``info`` entries of sub-env i as Python scalars (the keys of
+:data:`sma_gym.envs.task.INFO`: ``position_m``, ``reference_m``, ...; of the ended
 episode's last step when it ends) and ``TimeLimit.truncated``.
 
 The sub-envs share one simulator, so ``indices`` are honoured where that is meaningful
@@ -37,17 +38,9 @@ from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
-_PER_STEP_INFO = (
-    "position_m",
-    "position_measured_m",
-    "reference_m",
-    "temperature_c",
-    "electrical_energy_j",
-    "power_w",
-    "spring_force_n",
-    "duty",
-    "time_s",
-)
+from sma_gym.envs.task import INFO
+
+_PER_STEP_INFO = tuple(INFO)
 
 
 class SB3VecEnv(VecEnv):
@@ -93,9 +86,9 @@ class SB3VecEnv(VecEnv):
             obs = obs.copy()
             restarted, _ = self.venv.reset(options={"reset_mask": dones})
             obs[ended] = restarted[ended]
-        infos: list[dict[str, Any]] = [
-            {k: info[k][i] for k in _PER_STEP_INFO if k in info} for i in range(self.num_envs)
-        ]
+        # One conversion per key (tolist), not one numpy scalar per key and sub-env.
+        values = {k: info[k].tolist() for k in _PER_STEP_INFO if k in info}
+        infos: list[dict[str, Any]] = [{k: v[i] for k, v in values.items()} for i in range(self.num_envs)]
         for i in ended:
             infos[i]["terminal_observation"] = terminal[i]
             infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])

@@ -1,100 +1,39 @@
-"""Single-actuator environments: position tracking, self-sensing, robustness.
+"""Single-actuator environments: ``SMATracking-v0``, ``SMASelfSensing-v0``, ``SMARobust-v0``.
 
-All three are one class, :class:`SMAEnv`, configured by a :class:`Variant`:
-
-* ``SMATracking-v0``: sees the measured position, the resistance, the reference (with rate
-  and preview) and its last duty. Duty range [0, 1].
-* ``SMASelfSensing-v0``: the same task without a position sensor: it sees resistance,
-  current and voltage (V/I readings) but not the position; the duty is kept in [0.05, 0.8]
-  so that every PWM pulse outlasts the 50 us settling and R can always be read (report
-  §4.1, T9) — except while the driver's end-of-travel cut holds the power off, when no
-  current flows (the ``resistance_valid`` feature is then 0 and the last reading is held).
-  The reward still uses the true position. Default model: ``forced-convection``, the
-  report's self-sensing setup (§4.2): with the minimum duty, natural convection at 10 V
-  cannot cool the wire back down (§4.1).
-* ``SMARobust-v0``: the tracking task under the report's chapter-7 conditions (supply 5-15 V,
-  natural or forced convection, 0.2-0.5 mm wire) plus parameter spread, drawn at every reset
-  from ``self.np_random`` and reported in ``info`` (``condition_*`` keys) and in full in
-  ``env.unwrapped.condition``; kwargs fix any of them.
-
-Action: ``Box(-1, 1, (1,), float32)``, mapped affinely onto the allowed duty range,
-``duty = lo + (a + 1) / 2 * (hi - lo)``; values outside [-1, 1] are clipped, NaN or inf raise
-``ValueError``. Each step advances the simulator by ``control_period_s`` (default 10 ms; the
-report's controllers run at 1 kHz, pass ``control_period_s=0.001`` for that).
-
-Observation, reward: see :mod:`sma_gym.envs.task`. ``terminated`` when the wire exceeds
-``overheat_limit_c`` (150 degC by default: Flexinol's trained memory degrades when held much
-hotter); episodes are truncated by ``max_episode_steps`` (registered: 1000 steps = 10 s).
-
-``info`` (the same keys at reset and at every step, each a plain ``float``, ``int`` or
-``bool``, so ``json.dumps(info)`` works and batched clients can stack it): the true state
-(``position_m``, ``position_measured_m``, ``temperature_c``, ``martensite_fraction``,
-``stress_pa``), ``reference_m``, ``reference_kind`` (0 step, 1 ramp, 2 sine, 3 random),
-``power_w`` and ``electrical_energy_j`` (since reset), ``spring_force_n`` (what the
-report's force transducer reads), ``duty``, ``resistance_valid``, ``time_s``; robustness
-adds the drawn condition as ``condition_supply_voltage_v``, ``condition_forced_convection``
-(bool), ``condition_wire_diameter_m``, ``condition_convection_scale``,
-``condition_transformation_shift_k``, ``condition_strain_scale``,
-``condition_preload_scale``, ``condition_resistivity_scale``. The full description of the
-episode's reference (kind, name, parameters, waypoints: keys depend on the kind) is
-``env.unwrapped.reference_description()``; the drawn condition as a dict is
-``env.unwrapped.condition``.
-
-Unknown kwargs raise ``ValueError``. ``env.spec.id`` is the module-qualified id
-(``"sma_gym:SMATracking-v0"``), which ``gymnasium.make`` resolves in any process, also one
-that has not imported ``sma_gym``.
-
-The constants that define the observation are attributes, so a controller can turn the
-features back into SI units: ``position_scale_m`` (the stroke), ``resistance_scale_ohm``
-(the cold resistance), ``duty_range`` and ``control_period_s``.
-
-Version history (ids stay ``-v0``: the dynamics and rewards are unchanged):
-
-* 0.2: ``info`` is flat and JSON-serialisable: the nested ``info["reference"]`` (reset) and
-  ``info["condition"]`` are gone (use ``reference_description()`` and ``condition``;
-  ``reference_kind`` and ``condition_*`` carry their numbers), values are Python scalars
-  instead of numpy ones; unknown kwargs raise ``ValueError`` instead of ``TypeError``;
-  ``env.spec.id`` carries the ``sma_gym:`` prefix; ``render()`` no longer switches
-  matplotlib's global backend.
-* 0.1: first release.
+Each id has its own class (:class:`SMATrackingEnv`, :class:`SMASelfSensingEnv`,
+:class:`SMARobustEnv`) whose docstring is its contract in Gymnasium's sections. They share
+:class:`SMAEnv`, configured by a :class:`Variant`, and the validated :class:`Settings`
+that the native vector env (:mod:`sma_gym.envs.vector`) uses too.
 """
 
 from __future__ import annotations
 
-import inspect
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
 from sma_gym._validation import require_action, require_choice, require_range
-from sma_gym.core import layout as L
-from sma_gym.envs import ImportableSpec, task
+from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs import references as refs
-from sma_gym.envs.conditions import Conditions, condition_info
-from sma_gym.envs.render import Renderer
+from sma_gym.envs.conditions import CONDITION_INFO, CONDITION_KWARGS, Conditions, condition_info
+from sma_gym.envs.render import EpisodeRendering
 from sma_gym.model import ModelConfig, ModelSpec, load_model
 from sma_gym.simulator import PWM_MODES, Simulator
 
 DEFAULT_CONTROL_PERIOD_S = 10e-3
+DEFAULT_REFERENCE: tuple[str, ...] = refs.TRAINING_KINDS
+DEFAULT_ENERGY_WEIGHT = 0.0
 DEFAULT_OVERHEAT_C = 150.0
-_ALL_COLUMNS = np.zeros(1, dtype=np.int64)
+"""Flexinol's trained memory degrades when the wire is held much hotter."""
+DEFAULT_PWM_MODE = "averaged"
 
-STATE_INFO = (
-    ("position_m", L.S_X),
-    ("position_measured_m", L.S_POS_MEAS),
-    ("temperature_c", L.S_T),
-    ("martensite_fraction", L.S_XI),
-    ("stress_pa", L.S_SIGMA),
-    ("power_w", L.S_POWER),
-    ("electrical_energy_j", L.S_E_ELECTRIC),
-    ("spring_force_n", L.S_FORCE),
-    ("duty", L.S_DUTY_CMD),
-    ("time_s", L.S_TIME),
-)
-"""``info`` entries read straight from a simulator state row: (key, row)."""
+_ONE_ACTUATOR = np.zeros(1, dtype=np.int64)
+
+ReferenceSpec = str | dict | tuple[str, ...] | list[str]
+Range = float | tuple[float, float]
 
 
 @dataclass(frozen=True)
@@ -103,21 +42,37 @@ class Variant:
 
     name: str
     observation: int
-    duty_range: tuple[float, float]
+    """Observation set: :data:`~sma_gym.envs.task.OBS_POSITION` or ``OBS_SELF_SENSING``."""
+    duty_range: task.DutyRange
     randomised: bool = False
     default_model: str = "standard"
 
 
-TRACKING = Variant("tracking", task.TRACKING, (0.0, 1.0))
+TRACKING = Variant("tracking", task.OBS_POSITION, task.DutyRange(0.0, 1.0))
 # The report's self-sensing experiments ran with a fan (§4.2): with the minimum duty that
 # keeps R readable, natural convection cannot cool the wire back down at 10 V (§4.1).
-SELF_SENSING = Variant("self-sensing", task.SELF_SENSING, (0.05, 0.8), default_model="forced-convection")
-ROBUST = Variant("robust", task.TRACKING, (0.0, 1.0), randomised=True)
+SELF_SENSING = Variant(
+    "self-sensing", task.OBS_SELF_SENSING, task.DutyRange(0.05, 0.8), default_model="forced-convection"
+)
+ROBUST = Variant("robust", task.OBS_POSITION, task.DutyRange(0.0, 1.0), randomised=True)
+
+
+def reject_unknown(unknown: dict[str, Any], accepted: tuple[str, ...]) -> None:
+    """Raise ``ValueError`` for env kwargs that are not in the env's signature."""
+    if not unknown:
+        return
+    name = sorted(unknown)[0]
+    if name in CONDITION_KWARGS:
+        raise ValueError(f"{name} = {unknown[name]!r}: only the robustness env randomises conditions; use model= here")
+    if name == "pwm_mode":
+        raise ValueError("pwm_mode: the multiplexed env is always PWM-resolved")
+    raise ValueError(f"unknown env kwargs {sorted(unknown)}: expected some of {list(accepted)}")
+
 
 
 @dataclass(frozen=True)
 class Settings:
-    """Validated env kwargs shared by the single env and the vector env."""
+    """Validated env kwargs shared by the single envs, the multiplexed env and the vector env."""
 
     model: ModelConfig
     control_period_s: float
@@ -128,31 +83,25 @@ class Settings:
     conditions: Conditions | None
 
     @classmethod
-    def from_kwargs(cls, variant: Variant, **kwargs: Any) -> "Settings":
-        """Validate the env kwargs; an unknown name raises ``ValueError`` listing the known ones."""
-        known = tuple(inspect.signature(cls._from_known).parameters)[1:]
-        unknown = sorted(set(kwargs) - set(known))
-        if unknown:
-            raise ValueError(f"unknown env kwargs {unknown}: expected some of {list(known)}")
-        return cls._from_known(variant, **kwargs)
-
-    @classmethod
-    def _from_known(
+    def create(
         cls,
         variant: Variant,
-        model: ModelSpec = None,
-        control_period_s: float = DEFAULT_CONTROL_PERIOD_S,
-        reference: str | dict | tuple[str, ...] | list[str] = refs.TRAINING_KINDS,
-        energy_weight: float = 0.0,
-        overheat_limit_c: float = DEFAULT_OVERHEAT_C,
-        pwm_mode: str = "averaged",
-        position_noise_std_m: float | None = None,
-        resistance_noise_std_ohm: float | None = None,
-        supply_voltage_v: Any = (5.0, 15.0),
-        convection: Any = "random",
-        wire_diameter_m: Any = (0.2e-3, 0.5e-3),
-        spread: Any = 1.0,
+        *,
+        model: ModelSpec,
+        control_period_s: float,
+        reference: ReferenceSpec,
+        energy_weight: float,
+        overheat_limit_c: float,
+        pwm_mode: str,
+        position_noise_std_m: float | None,
+        resistance_noise_std_ohm: float | None,
+        conditions: dict[str, Any] | None = None,
     ) -> "Settings":
+        """Validate env kwargs; each error names the value and what was expected.
+
+        ``conditions``: the robustness kwargs given (``None`` values mean "the default of
+        :class:`Conditions`"); only a randomised variant accepts them.
+        """
         m = load_model(variant.default_model if model is None else model)
         changes = {}
         if position_noise_std_m is not None:
@@ -170,18 +119,12 @@ class Settings:
             if isinstance(name, dict):
                 # Validates every field, levels against the nominal model's stroke (reset
                 # checks again against the actuator's own).
-                refs.resolve(name, np.random.default_rng(0), task.stroke_of_actuator(m.actuator), "step")
+                refs.resolve(name, np.random.default_rng(0), m.actuator.usable_stroke_m, "step")
             else:
                 require_choice("reference", name, refs.NAMED)
-        conditions = None
-        if variant.randomised:
-            conditions = Conditions.from_kwargs(supply_voltage_v, convection, wire_diameter_m, spread)
-        else:
-            defaults = {"supply_voltage_v": (5.0, 15.0), "convection": "random", "wire_diameter_m": (0.2e-3, 0.5e-3), "spread": 1.0}
-            given = {"supply_voltage_v": supply_voltage_v, "convection": convection, "wire_diameter_m": wire_diameter_m, "spread": spread}
-            for key, value in given.items():
-                if value != defaults[key]:
-                    raise ValueError(f"{key} = {value!r}: only the robustness env randomises conditions; use model= here")
+        given = {k: v for k, v in (conditions or {}).items() if v is not None}
+        if not variant.randomised:
+            reject_unknown(given, ())
         return cls(
             model=m,
             control_period_s=require_range("control_period_s", control_period_s, 1e-4, 0.1, "s"),
@@ -189,11 +132,17 @@ class Settings:
             energy_weight=require_range("energy_weight", energy_weight, 0.0, 10.0),
             overheat_limit_c=require_range("overheat_limit_c", overheat_limit_c, 40.0, 500.0, "degC"),
             pwm_mode=require_choice("pwm_mode", pwm_mode, PWM_MODES),
-            conditions=conditions,
+            conditions=Conditions.from_kwargs(**given) if variant.randomised else None,
         )
 
+    def task_state(self, n: int, observation: int) -> task.TaskState:
+        """Task data for n actuators with these settings."""
+        return task.TaskState(n, observation, self.energy_weight, self.overheat_limit_c)
 
-def reset_column(sim: Simulator, state: task.TaskState, i: int, rng: np.random.Generator, settings: Settings, options: dict | None) -> dict[str, Any] | None:
+
+def reset_actuator(
+    sim: Simulator, state: task.TaskState, i: int, rng: np.random.Generator, settings: Settings, options: dict | None
+) -> dict[str, Any] | None:
     """Reset actuator i: draw its condition (robust) and reference from ``rng``.
 
     The one place a single env and the vector env reset an actuator, so that the same seed
@@ -208,45 +157,59 @@ def reset_column(sim: Simulator, state: task.TaskState, i: int, rng: np.random.G
     if settings.conditions is not None:
         model, condition = settings.conditions.draw(settings.model, rng)
         sim.set_model(i, model)
-    stroke = task.stroke_of(sim.params[i])
-    ref = refs.resolve(options.get("reference"), rng, stroke, settings.reference)
+    ref = refs.resolve(options.get("reference"), rng, float(sim.usable_stroke_m[i]), settings.reference)
     state.set_reference(i, ref)
     sim.reset(np.array([i]))
-    state.reset_column(i, sim.params[i])
+    state.reset_actuator(i, sim)
     return condition
 
 
-class SMAEnv(ImportableSpec, gym.Env):
-    """One SMA actuator tracking a position reference.
+class SMAEnv(EpisodeRendering, ImportableSpec, gym.Env):
+    """Base of the single-actuator envs (one per :class:`Variant`; see the subclasses).
 
-    Spaces, reward, episode end, ``info`` keys, kwargs and version history: see the module
-    docstring. Besides the Gymnasium API: :meth:`reference_description`, ``condition``
-    (robustness: the drawn condition), ``position_scale_m``, ``resistance_scale_ohm``,
-    ``duty_range``, ``control_period_s``, :meth:`duty_for`, :meth:`action_for`.
+    Besides the Gymnasium API: :meth:`reference_description`, ``condition`` (robustness:
+    the drawn condition), ``position_scale_m``, ``resistance_scale_ohm``, ``duty_range``,
+    ``control_period_s``, ``feature_names``, :meth:`duty_for`, :meth:`action_for`.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 100}
+    variant: ClassVar[Variant] = TRACKING
 
-    def __init__(self, variant: Variant = TRACKING, render_mode: str | None = None, **kwargs: Any):
-        self.variant = variant
-        self.settings = Settings.from_kwargs(variant, **kwargs)
-        self._renderer = Renderer(render_mode, self.metadata["render_modes"])
-        self.render_mode = render_mode
-        self.metadata = dict(self.metadata, render_fps=max(1, round(1.0 / self.settings.control_period_s)))
-        self.sim = Simulator(
-            self.settings.model, control_period_s=self.settings.control_period_s, pwm_mode=self.settings.pwm_mode
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        *,
+        model: ModelSpec = None,
+        control_period_s: float = DEFAULT_CONTROL_PERIOD_S,
+        reference: ReferenceSpec = DEFAULT_REFERENCE,
+        energy_weight: float = DEFAULT_ENERGY_WEIGHT,
+        overheat_limit_c: float = DEFAULT_OVERHEAT_C,
+        pwm_mode: str = DEFAULT_PWM_MODE,
+        position_noise_std_m: float | None = None,
+        resistance_noise_std_ohm: float | None = None,
+        **unknown: Any,
+    ):
+        reject_unknown(unknown, tuple(SMAEnv.__init__.__kwdefaults__))
+        settings = Settings.create(
+            self.variant, model=model, control_period_s=control_period_s, reference=reference,
+            energy_weight=energy_weight, overheat_limit_c=overheat_limit_c, pwm_mode=pwm_mode,
+            position_noise_std_m=position_noise_std_m, resistance_noise_std_ohm=resistance_noise_std_ohm,
         )
-        self.task = task.TaskState(1)
+        self._setup(settings, render_mode)
+
+    def _setup(self, settings: Settings, render_mode: str | None) -> None:
+        variant = self.variant
+        self.settings = settings
+        self._init_rendering(render_mode, settings.control_period_s)
+        self.sim = Simulator(settings.model, control_period_s=settings.control_period_s, pwm_mode=settings.pwm_mode)
+        self.task = settings.task_state(1, variant.observation)
         low, high = task.bounds(variant.observation)
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
         self.feature_names = task.FEATURES[variant.observation]
         self.duty_range = variant.duty_range
-        self.control_period_s = self.settings.control_period_s
+        self.control_period_s = settings.control_period_s
         self._set_scales()
-        lo, hi = variant.duty_range
-        self._duty_lo = lo
-        self._duty_half_range = 0.5 * (hi - lo)
         self._duty = np.zeros((1, 1))
         self._obs = np.zeros((1, len(self.feature_names)), dtype=np.float32)
         self._reward = np.zeros(1)
@@ -257,30 +220,27 @@ class SMAEnv(ImportableSpec, gym.Env):
         self._condition_info: dict[str, float | bool] = {}
 
     def _set_scales(self) -> None:
-        params = self.sim.params[0]
-        self.position_scale_m = task.stroke_of(params)
-        self.resistance_scale_ohm = float(params[L.P_RHO_M] * params[L.P_LENGTH] / params[L.P_AREA])
+        self.position_scale_m = float(self.sim.usable_stroke_m[0])
+        self.resistance_scale_ohm = float(self.sim.cold_resistance_ohm[0])
 
     # ------------------------------------------------------------------------------------
     def duty_for(self, action: float) -> float:
-        """Duty applied for a (clipped) action in [-1, 1]."""
-        a = -1.0 if action < -1.0 else (1.0 if action > 1.0 else action)
-        return self._duty_lo + (a + 1.0) * self._duty_half_range
+        """Duty applied for a (clipped) action in [-1, 1] (:meth:`DutyRange.duty_for`)."""
+        return self.duty_range.duty_for(action)
 
     def action_for(self, duty: float) -> float:
         """Inverse of :meth:`duty_for` (for controllers that compute a duty)."""
-        return (duty - self._duty_lo) / self._duty_half_range - 1.0
+        return self.duty_range.action_for(duty)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         self.sim.rng = self.np_random
-        self.condition = reset_column(self.sim, self.task, 0, self.np_random, self.settings, options)
+        self.condition = reset_actuator(self.sim, self.task, 0, self.np_random, self.settings, options)
         if self.condition is not None:
             self._condition_info = condition_info(self.condition)
             self._set_scales()
-        self._outputs()
-        self._renderer.reset()
-        self._record()
+        self._evaluate()
+        self._start_rendering()
         return self._obs[0].copy(), self._info()
 
     def reference_description(self) -> dict[str, Any]:
@@ -289,52 +249,168 @@ class SMAEnv(ImportableSpec, gym.Env):
 
     def step(self, action):
         a = float(require_action(action, 1)[0])
-        duty = self.duty_for(a)
+        duty = self.duty_range.duty_for(a)
         self._duty[0, 0] = duty
         self.sim.step_unchecked(self._duty)
         self.task.last_duty[0] = duty
-        self._outputs()
-        self._record()
-        if self.render_mode == "human":
-            self.render()
+        self._evaluate()
+        self._rendered_step()
         return self._obs[0].copy(), float(self._reward[0]), bool(self._term[0]), False, self._info()
 
-    def _outputs(self) -> None:
-        t = self.task
-        s = self.settings
-        task.task_outputs(
-            self.sim.state, self.sim.params, self.variant.observation, t.kind, t.params, t.wp_t, t.wp_x, t.held,
-            t.last_duty, s.energy_weight, s.overheat_limit_c, self._obs, self._reward, self._term, self._ref,
-            _ALL_COLUMNS,
-        )
+    def _evaluate(self) -> None:
+        self.task.evaluate(self.sim, _ONE_ACTUATOR, self._obs, self._reward, self._term, self._ref)
 
     def _info(self) -> dict[str, Any]:
-        st = self.sim.state[0]
-        # Python scalars, not numpy ones: json.dumps and loggers refuse np.bool_.
-        info: dict[str, Any] = {key: float(st[row]) for key, row in STATE_INFO}
-        info["reference_m"] = float(self._ref[0])
-        info["reference_kind"] = int(self.task.kind[0])
-        info["resistance_valid"] = bool(st[L.S_R_MEAS] == st[L.S_R_MEAS])
+        info = self.task.info_of(self.sim, 0, self._ref[0])
         info.update(self._condition_info)
         return info
 
-    # ------------------------------------------------------------------------------------
-    def _record(self) -> None:
-        if self.render_mode is None:
-            return  # nothing is drawn: skip building the sample (it is on every step's path)
-        st = self.sim.state[0]
-        self._renderer.record(
-            t=st[L.S_TIME],
-            position=st[L.S_X],
-            reference=self._ref[0],
-            duty=st[L.S_DUTY_CMD],
-            resistance=self.task.held[0, 0],
-            temperature=st[L.S_T],
+    def _render_title(self) -> str:
+        return f"{self.spec.id if self.spec else 'SMA'}: {self.settings.model.name}"
+
+
+class SMATrackingEnv(SMAEnv):
+    __doc__ = docs.env_doc(
+        "One SMA wire actuator tracking a position reference (``SMATracking-v0``).",
+        Description="""
+            A Flexinol-type NiTi wire pulls against a bias spring (the report's MigaOne
+            actuator: 0.3 mm wire, 10 V supply, 500 Hz PWM, natural convection). PWM current
+            heats it, it transforms from martensite to austenite and contracts; convection
+            cools it and the spring stretches it back through a 15 K hysteresis. The agent
+            chooses the duty each control step so that the position follows a reference
+            (steps, ramps, sines, smooth random profiles), seeing the measured position, the
+            wire resistance, the reference with its rate and a preview, and its last duty.
+            """,
+        Action_Space=docs.join("`Box(-1, 1, (1,), float32)`; duty range [0, 1].", docs.ACTION),
+        Observation_Space=docs.join(
+            "`Box(low, high, (10,), float32)`, each feature scaled to order one and clipped:",
+            task.feature_table(task.OBS_POSITION),
+            """
+            `stroke` is the usable stroke and `R_cold` the cold extended wire's resistance;
+            they are attributes (`position_scale_m`, `resistance_scale_ohm`), as are
+            `duty_range` and `control_period_s`, so a controller can turn the features back
+            into SI units.
+            """,
+        ),
+        Rewards=docs.REWARD,
+        Starting_State=docs.START,
+        Episode_End=docs.EPISODE_END,
+        Info=docs.join(
+            "The same keys at reset and at every step, each a Python `float`, `int` or `bool` "
+            "(`json.dumps(info)` works):",
+            docs.INFO_KEYS,
+            "The episode's reference in full: `env.unwrapped.reference_description()`.",
+        ),
+        Arguments=docs.join(docs.RENDER_MODE, docs.ARGUMENTS, docs.PWM_MODE),
+        Version_History=docs.VERSION_0_2,
+    )
+
+    variant = TRACKING
+
+
+class SMASelfSensingEnv(SMAEnv):
+    __doc__ = docs.env_doc(
+        "The tracking task without a position sensor (``SMASelfSensing-v0``).",
+        Description="""
+            The tracking env's actuator and task, but the agent sees the wire's resistance,
+            current and voltage (V/I readings) instead of its position: the report's
+            self-sensing control (§4). The reward still uses the true position. The default
+            model is `forced-convection`, the report's self-sensing setup (§4.2): with the
+            minimum duty, natural convection at 10 V cannot cool the wire back down (§4.1).
+            """,
+        Action_Space=docs.join(
+            """
+            `Box(-1, 1, (1,), float32)`; duty range [0.05, 0.8], so that every PWM pulse
+            outlasts the 50 us settling and R can always be read (report §4.1, T9), except
+            while the driver's end-of-travel cut holds the power off and no current flows
+            (`resistance_valid` is then 0 and the last reading is held).
+            """,
+            docs.ACTION,
+        ),
+        Observation_Space=docs.join(
+            "`Box(low, high, (10,), float32)`, each feature scaled to order one and clipped "
+            "(`I_cold`: the cold wire's current):",
+            task.feature_table(task.OBS_SELF_SENSING),
+        ),
+        Rewards=docs.REWARD,
+        Starting_State=docs.START,
+        Episode_End=docs.EPISODE_END,
+        Info=docs.join("As the tracking env:", docs.INFO_KEYS),
+        Arguments=docs.join(docs.RENDER_MODE, docs.ARGUMENTS, docs.PWM_MODE),
+        Version_History=docs.VERSION_0_2,
+    )
+
+    variant = SELF_SENSING
+
+
+class SMARobustEnv(SMAEnv):
+    __doc__ = docs.env_doc(
+        "The tracking task under randomised operating conditions (``SMARobust-v0``).",
+        Description="""
+            The tracking env under the report's chapter-7 conditions (supply voltage,
+            natural or forced convection, wire diameter) plus a parameter spread that stands
+            for unit-to-unit and model uncertainty, all drawn at every reset (ranges and
+            spread: :class:`~sma_gym.envs.conditions.Conditions`).
+            """,
+        Action_Space=docs.join("`Box(-1, 1, (1,), float32)`; duty range [0, 1].", docs.ACTION),
+        Observation_Space=docs.join(
+            "As the tracking env, scaled by this episode's actuator (its stroke and cold resistance):",
+            task.feature_table(task.OBS_POSITION),
+        ),
+        Rewards=docs.REWARD,
+        Starting_State=docs.join(
+            docs.START,
+            """
+            The condition is drawn first, from the same generator (same seed, same
+            condition); `env.unwrapped.condition` holds it as a dict.
+            """,
+        ),
+        Episode_End=docs.EPISODE_END,
+        Info=docs.join(
+            "The tracking env's keys,", docs.INFO_KEYS, "and the drawn condition:", task.info_list(CONDITION_INFO)
+        ),
+        Arguments=docs.join(
+            docs.RENDER_MODE,
+            docs.ARGUMENTS,
+            docs.PWM_MODE,
+            """
+            - `supply_voltage_v`, `wire_diameter_m`: a number fixes the condition, a
+              `(low, high)` pair draws it uniformly; `convection`: `"natural"`, `"forced"`
+              or `"random"`; `spread` (0 to 3) scales the parameter spread (0: none).
+              `None` (the default): the default of :class:`~sma_gym.envs.conditions.Conditions`.
+            """,
+        ),
+        Version_History=docs.VERSION_0_2,
+    )
+
+    variant = ROBUST
+
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        *,
+        model: ModelSpec = None,
+        control_period_s: float = DEFAULT_CONTROL_PERIOD_S,
+        reference: ReferenceSpec = DEFAULT_REFERENCE,
+        energy_weight: float = DEFAULT_ENERGY_WEIGHT,
+        overheat_limit_c: float = DEFAULT_OVERHEAT_C,
+        pwm_mode: str = DEFAULT_PWM_MODE,
+        position_noise_std_m: float | None = None,
+        resistance_noise_std_ohm: float | None = None,
+        supply_voltage_v: Range | None = None,
+        convection: str | None = None,
+        wire_diameter_m: Range | None = None,
+        spread: float | None = None,
+        **unknown: Any,
+    ):
+        reject_unknown(unknown, tuple(SMARobustEnv.__init__.__kwdefaults__))
+        settings = Settings.create(
+            self.variant, model=model, control_period_s=control_period_s, reference=reference,
+            energy_weight=energy_weight, overheat_limit_c=overheat_limit_c, pwm_mode=pwm_mode,
+            position_noise_std_m=position_noise_std_m, resistance_noise_std_ohm=resistance_noise_std_ohm,
+            conditions={
+                "supply_voltage_v": supply_voltage_v, "convection": convection,
+                "wire_diameter_m": wire_diameter_m, "spread": spread,
+            },
         )
-
-    def render(self) -> np.ndarray | None:
-        """``rgb_array``: the episode so far as a (640, 640, 3) uint8 frame; ``human``: show it."""
-        return self._renderer.render(f"{self.spec.id if self.spec else 'SMA'}: {self.settings.model.name}")
-
-    def close(self) -> None:
-        self._renderer.close()
+        self._setup(settings, render_mode)

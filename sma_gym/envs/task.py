@@ -1,31 +1,17 @@
-"""The tracking task on top of the simulator: observations, reward, termination.
+"""The tracking task on top of the simulator: actions, observations, reward, termination, info.
 
-One compiled function computes them for n columns of a :class:`~sma_gym.Simulator`, so the
-single env (n = 1), the multiplexed env (n actuators in one env) and the native vector env
-(one column per sub-env) share the same code.
+One compiled function computes observations, rewards and termination for any set of
+actuators of a :class:`~sma_gym.Simulator`, so the single env (n = 1), the multiplexed env
+(n actuators in one env) and the native vector env (one actuator per sub-env) share the
+same code. Each quantity the envs expose is defined here once:
 
-Observation features (float32, each scaled to order one and clipped to the Box bounds):
-
-================== ===================================================== ============
-feature            definition                                            bounds
-================== ===================================================== ============
-position           measured position / stroke                            [-0.5, 1.5]
-resistance         10 * (R / R_cold - 1), last valid reading held        [-3, 3]
-resistance_valid   1 if R could be read in this step (pulse >= 50 us)    [0, 1]
-current            10 * (I / I_cold - 1), last valid reading held        [-3, 3]
-voltage            10 * (V / V_supply - 1), last valid reading held      [-3, 3]
-reference          r(t) / stroke                                         [-0.5, 1.5]
-reference_rate     r'(t) * 1 s / stroke                                  [-10, 10]
-preview_0.2s       r(t + 0.2 s) / stroke                                 [-0.5, 1.5]
-preview_0.5s       r(t + 0.5 s) / stroke                                 [-0.5, 1.5]
-preview_1s         r(t + 1 s) / stroke (a reversal must be anticipated by  [-0.5, 1.5]
-                   about the time it takes to cool through the hysteresis)
-last_duty          duty applied in the last step                         [0, 1]
-error              (r(t) - measured position) / stroke                   [-2, 2]
-================== ===================================================== ============
-
-``stroke`` is the usable stroke: the driver's end-of-travel position if it has one, else
-eps0 * l0. ``R_cold``, ``I_cold`` are the cold extended wire's resistance and current.
+* the action -> duty map: :class:`DutyRange`;
+* the observation features, their definitions and bounds: :data:`FEATURES`,
+  :data:`_BOUNDS` (the env docstrings' tables are generated from them by
+  :func:`feature_table`);
+* the ``info`` keys: :data:`INFO` (:func:`info_list` documents them);
+* the scales (usable stroke, cold resistance): the simulator's parameter views
+  ``Simulator.usable_stroke_m`` and ``Simulator.cold_resistance_ohm``.
 
 Reward (per actuator, per step)::
 
@@ -37,23 +23,58 @@ at duty 1, so the energy term is at most ``energy_weight`` per step.
 
 from __future__ import annotations
 
-import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
 from sma_gym._jit import njit
 from sma_gym.core import layout as L
-from sma_gym.envs.references import evaluate
+from sma_gym.envs.references import N_PARAMS, N_WAYPOINTS, Reference, evaluate
 
 if TYPE_CHECKING:
-    from sma_gym.params import ActuatorParams
+    from sma_gym.simulator import Simulator
 
-TRACKING = 0
-SELF_SENSING = 1
+# --------------------------------------------------------------------------------------
+# Action
+# --------------------------------------------------------------------------------------
+
+
+class DutyRange(NamedTuple):
+    """The duty range an action in [-1, 1] is mapped onto, affinely.
+
+    A tuple ``(low, high)`` (so ``lo, hi = env.duty_range`` works), and the one definition
+    of the action <-> duty map: ``duty = low + (clip(a, -1, 1) + 1) / 2 * (high - low)``.
+    """
+
+    low: float
+    high: float
+
+    def duty_for(self, action: Any) -> Any:
+        """Duty for an action (a float or an array), clipped to [-1, 1] first."""
+        low, high = self
+        if type(action) is float:  # one env step: no numpy call on this path
+            a = -1.0 if action < -1.0 else (1.0 if action > 1.0 else action)
+        else:
+            a = np.clip(action, -1.0, 1.0)
+        return low + (a + 1.0) * (0.5 * (high - low))
+
+    def action_for(self, duty: Any) -> Any:
+        """Inverse of :meth:`duty_for` (a float or an array; not clipped), for controllers
+        that compute a duty."""
+        low, high = self
+        return (duty - low) / (0.5 * (high - low)) - 1.0
+
+
+# --------------------------------------------------------------------------------------
+# Observation
+# --------------------------------------------------------------------------------------
+OBS_POSITION = 0
+"""Observation set with the position sensor (tracking and robustness envs)."""
+OBS_SELF_SENSING = 1
+"""Observation set without it: resistance, current and voltage readings (self-sensing env)."""
 
 FEATURES = {
-    TRACKING: (
+    OBS_POSITION: (
         "position",
         "resistance",
         "resistance_valid",
@@ -65,7 +86,7 @@ FEATURES = {
         "last_duty",
         "error",
     ),
-    SELF_SENSING: (
+    OBS_SELF_SENSING: (
         "resistance",
         "resistance_valid",
         "current",
@@ -78,6 +99,8 @@ FEATURES = {
         "last_duty",
     ),
 }
+"""Feature names of each observation set, in observation order."""
+
 _BOUNDS = {
     "position": (-0.5, 1.5),
     "resistance": (-3.0, 3.0),
@@ -92,64 +115,161 @@ _BOUNDS = {
     "last_duty": (0.0, 1.0),
     "error": (-2.0, 2.0),
 }
+"""Box bounds of each feature (float32, each scaled to order one and clipped to these)."""
+
+_DEFINITIONS = {
+    "position": "measured position / stroke",
+    "resistance": "10 (R / R_cold - 1), last valid reading held",
+    "resistance_valid": "1 if R could be read in this step (pulse >= 50 us), else 0",
+    "current": "10 (I / I_cold - 1), last valid reading held",
+    "voltage": "10 (V / V_supply - 1), last valid reading held",
+    "reference": "r(t) / stroke",
+    "reference_rate": "r'(t) * 1 s / stroke",
+    "preview_0.2s": "r(t + 0.2 s) / stroke",
+    "preview_0.5s": "r(t + 0.5 s) / stroke",
+    "preview_1s": "r(t + 1 s) / stroke (a reversal must be anticipated by the time the wire takes to cool through the hysteresis)",
+    "last_duty": "duty applied in the last step",
+    "error": "(r(t) - measured position) / stroke",
+}
+
 PREVIEW_1_S = 0.2
 PREVIEW_2_S = 0.5
 PREVIEW_3_S = 1.0
 
+# The compiled task reads the bounds as compile-time tuples made from _BOUNDS.
+_LOWS_POSITION = tuple(_BOUNDS[f][0] for f in FEATURES[OBS_POSITION])
+_HIGHS_POSITION = tuple(_BOUNDS[f][1] for f in FEATURES[OBS_POSITION])
+_LOWS_SELF_SENSING = tuple(_BOUNDS[f][0] for f in FEATURES[OBS_SELF_SENSING])
+_HIGHS_SELF_SENSING = tuple(_BOUNDS[f][1] for f in FEATURES[OBS_SELF_SENSING])
 
-def bounds(mode: int) -> tuple[np.ndarray, np.ndarray]:
-    names = FEATURES[mode]
+
+def bounds(observation: int) -> tuple[np.ndarray, np.ndarray]:
+    """Low and high bounds (float32) of an observation set's features."""
+    names = FEATURES[observation]
     low = np.array([_BOUNDS[n][0] for n in names], dtype=np.float32)
     high = np.array([_BOUNDS[n][1] for n in names], dtype=np.float32)
     return low, high
 
 
-def stroke_of(params_row: np.ndarray) -> float:
-    eot = params_row[L.P_EOT]
-    return float(eot) if math.isfinite(eot) else float(params_row[L.P_EPS0] * params_row[L.P_LENGTH])
+def feature_table(observation: int) -> str:
+    """The features of an observation set as a Markdown table (for the env docstrings)."""
+    lines = ["| Num | Feature | Definition | Min | Max |", "|-----|---------|------------|-----|-----|"]
+    for k, name in enumerate(FEATURES[observation]):
+        low, high = _BOUNDS[name]
+        lines.append(f"| {k} | `{name}` | {_DEFINITIONS[name]} | {low:g} | {high:g} |")
+    return "\n".join(lines)
 
 
-def stroke_of_actuator(params: ActuatorParams) -> float:
-    """:func:`stroke_of` for parameters not yet packed (to check make kwargs)."""
-    eot = params.driver.end_of_travel_m
-    return float(eot) if math.isfinite(eot) else float(params.wire.max_stroke_m)
+# --------------------------------------------------------------------------------------
+# Info
+# --------------------------------------------------------------------------------------
+STATE_INFO = {
+    "position_m": "true contraction [m]",
+    "position_measured_m": "position reading [m]",
+    "temperature_c": "wire temperature [degC]",
+    "martensite_fraction": "martensite fraction [-]",
+    "stress_pa": "wire stress [Pa]",
+    "power_w": "mean electrical power of the step [W]",
+    "electrical_energy_j": "electrical energy since reset [J]",
+    "spring_force_n": "bias-spring force (what the report's force transducer reads) [N]",
+    "duty": "duty applied in the step, after clipping",
+    "time_s": "simulated time since reset [s]",
+}
+"""``info`` entries that are simulator state quantities (names of ``Simulator.read``)."""
+
+INFO = {
+    **STATE_INFO,
+    "reference_m": "reference position r(t) [m]",
+    "reference_kind": "0 step, 1 ramp, 2 sine, 3 random (int)",
+    "resistance_valid": "a resistance reading was taken in the step (bool)",
+}
+"""Every ``info`` key of every env (robustness adds :data:`~sma_gym.envs.conditions.CONDITION_INFO`)."""
+
+_STATE_INFO_KEYS = tuple(STATE_INFO)
+_READ_KEYS = (*STATE_INFO, "resistance_measured_ohm")
 
 
+def info_list(entries: dict[str, str]) -> str:
+    """``info`` entries as a Markdown list (for the env docstrings)."""
+    return "\n".join(f"- `{key}`: {text}" for key, text in entries.items())
+
+
+# --------------------------------------------------------------------------------------
+# Per-actuator task state
+# --------------------------------------------------------------------------------------
 class TaskState:
-    """Per-column task data: the reference, held sensor readings, last duty."""
+    """Per-actuator task data (references, held sensor readings, last duty) and the task's
+    settings: which observation set, the energy weight and the overheat limit."""
 
-    def __init__(self, n: int):
-        from sma_gym.envs.references import N_PARAMS, N_WAYPOINTS
-
+    def __init__(self, n: int, observation: int, energy_weight: float, overheat_limit_c: float):
         self.n = n
+        self.observation = observation
+        self.energy_weight = energy_weight
+        self.overheat_limit_c = overheat_limit_c
         self.kind = np.zeros(n, dtype=np.int64)
         self.params = np.zeros((n, N_PARAMS))
         self.wp_t = np.full((n, N_WAYPOINTS), np.inf)
         self.wp_x = np.zeros((n, N_WAYPOINTS))
         self.held = np.zeros((n, 3))  # last valid R, I, V
         self.last_duty = np.zeros(n)
-        self.reference_now = np.zeros(n)
-        self.references: list = [None] * n
+        self.references: list[Reference | None] = [None] * n
 
-    def set_reference(self, i: int, ref) -> None:
+    def set_reference(self, i: int, ref: Reference) -> None:
+        """Give actuator i a new reference."""
         self.kind[i] = ref.kind
         self.params[i] = ref.params
         self.wp_t[i] = ref.waypoint_t
         self.wp_x[i] = ref.waypoint_x
         self.references[i] = ref
 
-    def reset_column(self, i: int, params_row: np.ndarray) -> None:
-        r_cold = params_row[L.P_RHO_M] * params_row[L.P_LENGTH] / params_row[L.P_AREA]
-        v = params_row[L.P_V_SUPPLY]
+    def reset_actuator(self, i: int, sim: Simulator) -> None:
+        """Start actuator i's episode: readings held at the cold wire's values, no duty yet."""
+        r_cold = float(sim.cold_resistance_ohm[i])
+        v = float(sim.supply_voltage_v[i])
         self.held[i] = (r_cold, v / r_cold, v)
         self.last_duty[i] = 0.0
+
+    def evaluate(
+        self,
+        sim: Simulator,
+        actuators: np.ndarray,
+        obs_out: np.ndarray,
+        reward_out: np.ndarray,
+        term_out: np.ndarray,
+        ref_out: np.ndarray,
+    ) -> None:
+        """Fill observations, rewards, termination flags and references (entry j for
+        actuator ``actuators[j]``, an int64 array)."""
+        task_outputs(
+            sim.state, sim.params, self.observation, self.kind, self.params, self.wp_t, self.wp_x, self.held,
+            self.last_duty, self.energy_weight, self.overheat_limit_c, obs_out, reward_out, term_out, ref_out,
+            actuators,
+        )
+
+    def info(self, sim: Simulator, reference_m: np.ndarray) -> dict[str, Any]:
+        """The :data:`INFO` entries of every actuator, each an array of shape (n,)."""
+        info: dict[str, Any] = sim.read(_STATE_INFO_KEYS)
+        info["reference_m"] = reference_m.copy()
+        info["reference_kind"] = self.kind.copy()
+        info["resistance_valid"] = ~np.isnan(sim.resistance_measured_ohm)
+        return info
+
+    def info_of(self, sim: Simulator, i: int, reference_m: float) -> dict[str, Any]:
+        """The :data:`INFO` entries of actuator i as Python scalars (json.dumps and loggers
+        refuse numpy scalars such as ``np.bool_``)."""
+        info: dict[str, Any] = sim.read_actuator(i, _READ_KEYS)
+        r = info.pop("resistance_measured_ohm")
+        info["reference_m"] = float(reference_m)
+        info["reference_kind"] = int(self.kind[i])
+        info["resistance_valid"] = r == r  # not NaN: a reading was taken
+        return info
 
 
 @njit(cache=True, error_model="numpy")
 def task_outputs(
     state,
     params,
-    mode,
+    observation,
     kind,
     ref_p,
     wp_t,
@@ -162,16 +282,15 @@ def task_outputs(
     reward_out,
     term_out,
     ref_out,
-    columns,
+    actuators,
 ):
-    """Fill observation rows, rewards, termination flags and references for ``columns``."""
-    for j in range(columns.shape[0]):
-        i = columns[j]
+    """Fill observation rows, rewards, termination flags and references for ``actuators``."""
+    for j in range(actuators.shape[0]):
+        i = actuators[j]
         p = params[i]
         s = state[i]
-        eot = p[L.P_EOT]
-        stroke = eot if eot < 1e9 else p[L.P_EPS0] * p[L.P_LENGTH]
-        r_cold = p[L.P_RHO_M] * p[L.P_LENGTH] / p[L.P_AREA]
+        stroke = p[L.P_STROKE]
+        r_cold = p[L.P_R_COLD]
         v_supply = p[L.P_V_SUPPLY]
         i_cold = v_supply / r_cold
         t = s[L.S_TIME]
@@ -188,7 +307,7 @@ def task_outputs(
         x_meas = s[L.S_POS_MEAS] / stroke
         rn = r / stroke
         res = 10.0 * (held[i, 0] / r_cold - 1.0)
-        if mode == TRACKING:
+        if observation == OBS_POSITION:
             feats = (
                 x_meas,
                 res,
@@ -201,8 +320,8 @@ def task_outputs(
                 last_duty[i],
                 rn - x_meas,
             )
-            lows = (-0.5, -3.0, 0.0, -0.5, -10.0, -0.5, -0.5, -0.5, 0.0, -2.0)
-            highs = (1.5, 3.0, 1.0, 1.5, 10.0, 1.5, 1.5, 1.5, 1.0, 2.0)
+            lows = _LOWS_POSITION
+            highs = _HIGHS_POSITION
         else:
             feats = (
                 res,
@@ -216,8 +335,8 @@ def task_outputs(
                 r3 / stroke,
                 last_duty[i],
             )
-            lows = (-3.0, 0.0, -3.0, -3.0, -0.5, -10.0, -0.5, -0.5, -0.5, 0.0)
-            highs = (3.0, 1.0, 3.0, 3.0, 1.5, 10.0, 1.5, 1.5, 1.5, 1.0)
+            lows = _LOWS_SELF_SENSING
+            highs = _HIGHS_SELF_SENSING
         for k in range(len(feats)):
             value = feats[k]
             if value < lows[k]:
@@ -229,3 +348,4 @@ def task_outputs(
         reward_out[j] = -abs(s[L.S_X] - r) / stroke - energy_weight * s[L.S_POWER] / p_full
         term_out[j] = s[L.S_T] > overheat_c
         ref_out[j] = r
+

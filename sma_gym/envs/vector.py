@@ -1,45 +1,9 @@
-"""Native vector env: thousands of single-actuator envs as columns of one simulator.
+"""Native vector env: thousands of single-actuator envs as actuators of one simulator.
 
 ``gymnasium.make_vec("sma_gym:SMATracking-v0", num_envs=4096,
 vectorization_mode="vector_entry_point")`` builds :class:`SMAVectorEnv`: one batched
 :class:`~sma_gym.Simulator` step and one compiled task evaluation per vector step, instead
-of N Python env steps.
-
-Semantics match N single envs exactly (tested): sub-env i is seeded with ``seed + i`` (as
-Gymnasium's ``SyncVectorEnv`` does) and draws its references, conditions and sensor noise
-from its own generator in the same order as a single env. Episodes are truncated after
-``max_episode_steps`` (from the registration).
-
-Autoreset: ``autoreset_mode`` (kwarg of ``make_vec``; an :class:`~gymnasium.vector.AutoresetMode`
-or its value string) works as in Gymnasium's ``SyncVectorEnv`` and is reported in
-``metadata["autoreset_mode"]``:
-
-* ``NEXT_STEP`` (default, as for every Gymnasium vector env, so Gymnasium's vector
-  observation wrappers work): the step on which a sub-env ends returns its last
-  observation; the next ``step`` ignores that sub-env's action, resets it and returns the
-  first observation of its new episode with reward 0 and ``terminated = truncated = False``.
-* ``SAME_STEP``: the ending step already returns the first observation of the next episode;
-  the last observation and info of the ended one are in ``info["final_obs"]`` /
-  ``info["final_info"]`` (masks ``info["_final_obs"]``, ``info["_final_info"]``).
-* ``DISABLED``: ended sub-envs are not reset; reset them with
-  ``reset(options={"reset_mask": mask})`` before the next ``step`` (stepping one raises).
-
-``reset(options={"reset_mask": mask})`` (a bool array, one entry per sub-env) resets only
-the masked sub-envs in every mode, as in Gymnasium. Stable-baselines3 can use any mode
-through :class:`sma_gym.envs.sb3.SB3VecEnv`.
-
-``info``: the single env's keys (see :mod:`sma_gym.envs.single`), each a fixed-shape array
-(num_envs,) with its ``_key`` mask, the same keys at reset and at every step.
-:meth:`SMAVectorEnv.reference_description` and ``conditions`` give the full descriptions.
-
-``render_mode="rgb_array"``: ``render()`` returns one frame per sub-env (a tuple, as
-``SyncVectorEnv`` does), each the single env's plot of that sub-env's current episode.
-
-Version history: 0.2: ``autoreset_mode`` (default ``NEXT_STEP``; 0.1 always ran
-``SAME_STEP``), ``reset_mask``, ``render_mode``; ``info`` without the object arrays
-``reference`` (reset) and ``condition`` (use ``reference_description()``, ``conditions``,
-``reference_kind`` and the ``condition_*`` arrays); ``spec.id`` carries the ``sma_gym:``
-prefix.
+of N Python env steps. The contract is the docstring of :class:`SMAVectorEnv`.
 """
 
 from __future__ import annotations
@@ -54,27 +18,113 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from sma_gym._validation import require_choice, require_int_range
-from sma_gym.core import layout as L
-from sma_gym.envs import ImportableSpec, task
-from sma_gym.envs.conditions import CONDITION_INFO_KEYS, condition_info
+from sma_gym.envs import ImportableSpec, docs, task
+from sma_gym.envs.conditions import CONDITION_INFO, CONDITION_INFO_KEYS, condition_info
 from sma_gym.envs.render import EpisodeHistory, EpisodePlot
-from sma_gym.envs.single import STATE_INFO, TRACKING, Settings, Variant, reset_column
+from sma_gym.envs.single import (
+    DEFAULT_CONTROL_PERIOD_S,
+    DEFAULT_ENERGY_WEIGHT,
+    DEFAULT_OVERHEAT_C,
+    DEFAULT_PWM_MODE,
+    DEFAULT_REFERENCE,
+    TRACKING,
+    Range,
+    ReferenceSpec,
+    Settings,
+    Variant,
+    reject_unknown,
+    reset_actuator,
+)
+from sma_gym.model import ModelSpec
 from sma_gym.simulator import Simulator
 
 _MODES = {mode.value: mode for mode in AutoresetMode}
 
 
 class SMAVectorEnv(ImportableSpec, VectorEnv):
-    """``num_envs`` single-actuator envs of one variant, simulated as one batch.
+    __doc__ = docs.env_doc(
+        "``num_envs`` single-actuator envs of one variant, simulated as one batch.",
+        Description="""
+            The native vector env of the three single-actuator ids (``SMATracking-v0``,
+            ``SMASelfSensing-v0``, ``SMARobust-v0``): sub-env i is actuator i of one
+            :class:`~sma_gym.Simulator`, stepped together. Semantics match N single envs
+            exactly (tested): sub-env i is seeded with `seed + i` (as Gymnasium's
+            `SyncVectorEnv` does) and draws its references, conditions and sensor noise from
+            its own generator in the same order as a single env. Besides the Gymnasium API:
+            `reference_description()`, `conditions`, `reset_envs(indices)`, and the per-sub-env
+            arrays `position_scale_m`, `resistance_scale_ohm`. Stable-baselines3 can use it in
+            any autoreset mode through :class:`sma_gym.envs.sb3.SB3VecEnv`.
+            """,
+        Action_Space=docs.join(
+            "`Box(-1, 1, (num_envs, 1), float32)`: sub-env i's action is row i; the single env's duty range.",
+            docs.ACTION,
+        ),
+        Observation_Space="`Box(low, high, (num_envs, 10), float32)`: row i is sub-env i's "
+        "observation, the single env's features (see its class).",
+        Rewards=docs.join(docs.REWARD, "One reward per sub-env, shape (num_envs,)."),
+        Starting_State=docs.join(
+            docs.START,
+            """
+            `reset(options={"reset_mask": mask})` (a bool array, one entry per sub-env) resets
+            only the masked sub-envs, in every autoreset mode, as in Gymnasium.
+            """,
+        ),
+        Episode_End=docs.join(
+            docs.EPISODE_END,
+            """
+            Autoreset: `autoreset_mode` works as in Gymnasium's `SyncVectorEnv` and is
+            reported in `metadata["autoreset_mode"]`:
 
-    Args:
-        num_envs: number of sub-envs (1 to 2**20).
-        variant: which single-actuator env (:data:`~sma_gym.envs.single.TRACKING`, ...).
-        max_episode_steps: truncate episodes after this many steps (``None``: never).
-        autoreset_mode: ``NEXT_STEP`` (default), ``SAME_STEP`` or ``DISABLED`` (see the module).
-        render_mode: ``None`` or ``"rgb_array"``.
-        **kwargs: the single env's kwargs (model, reference, ...); unknown names raise ``ValueError``.
-    """
+            * `NEXT_STEP` (default, as for every Gymnasium vector env, so Gymnasium's vector
+              observation wrappers work): the step on which a sub-env ends returns its last
+              observation; the next `step` ignores that sub-env's action, resets it and
+              returns the first observation of its new episode with reward 0 and
+              `terminated = truncated = False`.
+            * `SAME_STEP`: the ending step already returns the first observation of the next
+              episode; the last observation and info of the ended one are in
+              `info["final_obs"]` / `info["final_info"]` (masks `info["_final_obs"]`,
+              `info["_final_info"]`).
+            * `DISABLED`: ended sub-envs are not reset; reset them with
+              `reset(options={"reset_mask": mask})` before the next `step` (stepping one
+              raises).
+            """,
+        ),
+        Info=docs.join(
+            "The single env's keys, each an array of fixed shape (num_envs,) with its `_key` "
+            "mask, the same keys at reset and at every step:",
+            docs.INFO_KEYS,
+            "and for the robustness variant the drawn condition:",
+            task.info_list(CONDITION_INFO),
+        ),
+        Arguments=docs.join(
+            """
+            - `num_envs`: number of sub-envs (1 to 2**20).
+            - `variant`: which single-actuator env (:data:`~sma_gym.envs.single.TRACKING`,
+              `SELF_SENSING`, `ROBUST`); the vector entry points of the ids set it.
+            - `max_episode_steps`: truncate episodes after this many steps (`None`: never;
+              `make_vec` passes the registered 1000).
+            - `autoreset_mode`: an :class:`~gymnasium.vector.AutoresetMode` or its value string.
+            - `render_mode`: `None` or `"rgb_array"`: `render()` returns one frame per
+              sub-env (a tuple, as `SyncVectorEnv` does), each the single env's plot of
+              that sub-env's current episode.
+            """,
+            docs.ARGUMENTS,
+            docs.PWM_MODE,
+            "- `supply_voltage_v`, `convection`, `wire_diameter_m`, `spread`: robustness "
+            "variant only, as for ``SMARobust-v0``.",
+        ),
+        Version_History=docs.join(
+            """
+            * 0.2: `autoreset_mode` (default `NEXT_STEP`; 0.1 always ran `SAME_STEP`),
+              `reset_mask`, `render_mode`; `info` without the object arrays `reference`
+              (reset) and `condition` (use `reference_description()`, `conditions`,
+              `reference_kind` and the `condition_*` arrays); `spec.id` carries the
+              `sma_gym:` prefix; the contract is on the class and the keyword arguments in
+              its signature.
+            * 0.1: first release.
+            """
+        ),
+    )
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 100, "autoreset_mode": AutoresetMode.NEXT_STEP}
 
@@ -96,7 +146,20 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         max_episode_steps: int | None = None,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         render_mode: str | None = None,
-        **kwargs: Any,
+        *,
+        model: ModelSpec = None,
+        control_period_s: float = DEFAULT_CONTROL_PERIOD_S,
+        reference: ReferenceSpec = DEFAULT_REFERENCE,
+        energy_weight: float = DEFAULT_ENERGY_WEIGHT,
+        overheat_limit_c: float = DEFAULT_OVERHEAT_C,
+        pwm_mode: str = DEFAULT_PWM_MODE,
+        position_noise_std_m: float | None = None,
+        resistance_noise_std_ohm: float | None = None,
+        supply_voltage_v: Range | None = None,
+        convection: str | None = None,
+        wire_diameter_m: Range | None = None,
+        spread: float | None = None,
+        **unknown: Any,
     ):
         self.num_envs = require_int_range("num_envs", num_envs, 1, 1 << 20)
         if max_episode_steps is not None:
@@ -108,7 +171,16 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             raise ValueError(f"render_mode = {render_mode!r}: expected one of {self.metadata['render_modes']} or None")
         self.render_mode = render_mode
         self.variant = variant
-        self.settings = Settings.from_kwargs(variant, **kwargs)
+        reject_unknown(unknown, tuple(SMAVectorEnv.__init__.__kwdefaults__))
+        self.settings = Settings.create(
+            variant, model=model, control_period_s=control_period_s, reference=reference,
+            energy_weight=energy_weight, overheat_limit_c=overheat_limit_c, pwm_mode=pwm_mode,
+            position_noise_std_m=position_noise_std_m, resistance_noise_std_ohm=resistance_noise_std_ohm,
+            conditions={
+                "supply_voltage_v": supply_voltage_v, "convection": convection,
+                "wire_diameter_m": wire_diameter_m, "spread": spread,
+            },
+        )
         self.metadata = dict(
             self.metadata,
             autoreset_mode=self.autoreset_mode,
@@ -119,7 +191,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             control_period_s=self.settings.control_period_s,
             pwm_mode=self.settings.pwm_mode,
         )
-        self.task = task.TaskState(self.num_envs)
+        self.task = self.settings.task_state(self.num_envs, variant.observation)
         low, high = task.bounds(variant.observation)
         self.single_observation_space = spaces.Box(low, high, dtype=np.float32)
         self.single_action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
@@ -128,11 +200,8 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         self.feature_names = task.FEATURES[variant.observation]
         self.duty_range = variant.duty_range
         self.control_period_s = self.settings.control_period_s
-        lo, hi = variant.duty_range
-        self._duty_lo = lo
-        self._duty_half_range = 0.5 * (hi - lo)
         n = self.num_envs
-        self._columns = np.arange(n, dtype=np.int64)
+        self._all_envs = np.arange(n, dtype=np.int64)
         self._obs = np.zeros((n, len(self.feature_names)), dtype=np.float32)
         self._reward = np.zeros(n)
         self._term = np.zeros(n, dtype=np.bool_)
@@ -153,15 +222,12 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
     @property
     def position_scale_m(self) -> np.ndarray:
         """Stroke each sub-env's position features are divided by [m], shape (num_envs,)."""
-        p = self.sim.params
-        eot = p[:, L.P_EOT]
-        return np.where(np.isfinite(eot), eot, p[:, L.P_EPS0] * p[:, L.P_LENGTH])
+        return self.sim.usable_stroke_m.copy()
 
     @property
     def resistance_scale_ohm(self) -> np.ndarray:
         """Cold resistance each sub-env's resistance feature is relative to [ohm]."""
-        p = self.sim.params
-        return p[:, L.P_RHO_M] * p[:, L.P_LENGTH] / p[:, L.P_AREA]
+        return self.sim.cold_resistance_ohm.copy()
 
     def reset(self, *, seed: int | Sequence[int | None] | None = None, options: dict | None = None):
         """Reset all sub-envs, or those in ``options["reset_mask"]``; sub-env i gets ``seed + i``."""
@@ -185,7 +251,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         for i in np.flatnonzero(mask):
             if seeds[i] is not None:
                 self._rngs[i], _ = seeding.np_random(seeds[i])
-        self._reset_columns(np.flatnonzero(mask), options)
+        self._reset_envs(np.flatnonzero(mask), options)
         return self._obs.copy(), self._info()
 
     def reset_envs(self, indices: Sequence[int], options: dict | None = None) -> list[tuple[np.ndarray, dict[str, Any]]]:
@@ -194,7 +260,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         Returns ``(observation, info)`` per index, in the order given (info: that sub-env's
         entries as Python scalars).
         """
-        self._reset_columns(np.asarray(sorted({int(i) for i in indices}), dtype=np.int64), options)
+        self._reset_envs(np.asarray(sorted({int(i) for i in indices}), dtype=np.int64), options)
         info = self._info()
         return [(self._obs[i].copy(), {k: v[i].item() for k, v in info.items() if not k.startswith("_")}) for i in indices]
 
@@ -202,12 +268,12 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         """Each sub-env's current reference (kind, name, parameters; keys depend on the kind)."""
         return [ref.describe() for ref in self.task.references]
 
-    def _reset_columns(self, columns: np.ndarray, options: dict | None) -> None:
-        """Start a new episode in ``columns``, each drawing from its own generator."""
-        for i in columns:
+    def _reset_envs(self, envs: np.ndarray, options: dict | None) -> None:
+        """Start a new episode in the sub-envs ``envs``, each drawing from its own generator."""
+        for i in envs:
             if self._rngs[i] is None:
                 self._rngs[i], _ = seeding.np_random(None)
-            condition = reset_column(self.sim, self.task, int(i), self._rngs[i], self.settings, options)
+            condition = reset_actuator(self.sim, self.task, int(i), self._rngs[i], self.settings, options)
             self.conditions[i] = condition
             if condition is not None:
                 for key, value in condition_info(condition).items():
@@ -215,10 +281,10 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             self._steps[i] = 0
             if self._histories:
                 self._histories[i].clear()
-        self._ended[columns] = False
-        if columns.size:
-            self._outputs(columns.astype(np.int64))
-            self._record(columns)
+        self._ended[envs] = False
+        if envs.size:
+            self._evaluate(envs.astype(np.int64))
+            self._record(envs)
 
     def step(self, actions):
         a = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
@@ -233,7 +299,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
                 f"sub-envs {np.flatnonzero(restart).tolist()} ended and autoreset_mode = DISABLED: expected "
                 "reset(options={'reset_mask': mask}) for them before the next step"
             )
-        duty = self._duty_lo + (np.clip(a[:, 0], -1.0, 1.0) + 1.0) * self._duty_half_range
+        duty = self.duty_range.duty_for(a[:, 0])
         self._duty[0] = duty
         noise = None
         if self.sim.has_noise:
@@ -243,11 +309,11 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
                 noise[0, :, i] = self._rngs[i].standard_normal((1, 4, 1))[0, :, 0]
         self.sim.step_unchecked(self._duty, noise)
         self.task.last_duty[:] = duty
-        self._outputs(self._columns)
+        self._evaluate(self._all_envs)
         self._steps += 1
         if restart.any():
-            # NEXT_STEP: the column was stepped with the batch; resetting it now discards that.
-            self._reset_columns(np.flatnonzero(restart), None)
+            # NEXT_STEP: the sub-env was stepped with the batch; resetting it now discards that.
+            self._reset_envs(np.flatnonzero(restart), None)
             self._reward[restart] = 0.0
             self._term[restart] = False
         self._record(np.flatnonzero(~restart))
@@ -269,7 +335,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             final_obs[i] = self._obs[i].copy()
         final_info = {k: v.copy() for k, v in info.items()}
         final_info.update({f"_{k}": done.copy() for k in info if not k.startswith("_")})
-        self._reset_columns(np.flatnonzero(done), None)
+        self._reset_envs(np.flatnonzero(done), None)
         info = self._info()
         info["final_obs"] = final_obs
         info["_final_obs"] = done.copy()
@@ -277,48 +343,39 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         info["_final_info"] = done.copy()
         return self._obs.copy(), reward, terminated, truncated, info
 
-    def _outputs(self, columns: np.ndarray) -> None:
-        t = self.task
-        s = self.settings
-        if len(columns) == self.num_envs:
+    def _evaluate(self, envs: np.ndarray) -> None:
+        if len(envs) == self.num_envs:
             obs, rew, term, ref = self._obs, self._reward, self._term, self._ref
         else:
-            k = len(columns)
+            k = len(envs)
             obs = np.zeros((k, self._obs.shape[1]), dtype=np.float32)
             rew, term, ref = np.zeros(k), np.zeros(k, dtype=np.bool_), np.zeros(k)
-        task.task_outputs(
-            self.sim.state, self.sim.params, self.variant.observation, t.kind, t.params, t.wp_t, t.wp_x, t.held,
-            t.last_duty, s.energy_weight, s.overheat_limit_c, obs, rew, term, ref, columns,
-        )
-        if len(columns) != self.num_envs:
-            self._obs[columns] = obs
-            self._ref[columns] = ref
+        self.task.evaluate(self.sim, envs, obs, rew, term, ref)
+        if len(envs) != self.num_envs:
+            self._obs[envs] = obs
+            self._ref[envs] = ref
             # A fresh episode is neither rewarded nor terminated yet; keep the step's values.
 
     def _info(self) -> dict[str, Any]:
-        st = self.sim.state
-        info: dict[str, Any] = {key: st[:, row].copy() for key, row in STATE_INFO}
-        info["reference_m"] = self._ref.copy()
-        info["reference_kind"] = self.task.kind.copy()
-        info["resistance_valid"] = ~np.isnan(st[:, L.S_R_MEAS])
+        info = self.task.info(self.sim, self._ref)
         if self.variant.randomised:
             info.update({key: value.copy() for key, value in self._condition_info.items()})
         for key in list(info):
             info["_" + key] = self._all_true
         return info
 
-    def _record(self, columns: np.ndarray) -> None:
+    def _record(self, envs: np.ndarray) -> None:
         if not self._histories:
             return
-        st = self.sim.state
-        for i in columns:
+        sim = self.sim
+        for i in envs:
             self._histories[i].add(
-                t=st[i, L.S_TIME],
-                position=st[i, L.S_X],
+                t=sim.time_s[i],
+                position=sim.position_m[i],
                 reference=self._ref[i],
-                duty=st[i, L.S_DUTY_CMD],
+                duty=sim.duty_applied[i],
                 resistance=self.task.held[i, 0],
-                temperature=st[i, L.S_T],
+                temperature=sim.temperature_c[i],
             )
 
     def render(self) -> tuple[np.ndarray, ...] | None:

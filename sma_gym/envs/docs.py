@@ -1,0 +1,110 @@
+"""The envs' contracts: class docstrings in Gymnasium's sections, assembled from shared parts.
+
+Gymnasium documents each env on its class (``help(env.unwrapped)``) under Description,
+Action Space, Observation Space, Rewards, Starting State, Episode End, Arguments and
+Version History. Our envs share most of that text, and the tables of features and
+``info`` keys are generated from their single definitions in :mod:`sma_gym.envs.task`, so
+the text here cannot drift from the code.
+"""
+
+from __future__ import annotations
+
+import textwrap
+
+from sma_gym.envs import task
+
+SECTIONS = (
+    "Description",
+    "Action Space",
+    "Observation Space",
+    "Rewards",
+    "Starting State",
+    "Episode End",
+    "Info",
+    "Arguments",
+    "Version History",
+)
+
+
+def env_doc(summary: str, **sections: str) -> str:
+    """A class docstring: ``summary``, then each section (keyword = title with ``_`` for
+    spaces) in Gymnasium's order. Section texts are dedented, so they may be indented in
+    the source."""
+    given = {title.replace("_", " "): text for title, text in sections.items()}
+    unknown = set(given) - set(SECTIONS)
+    if unknown:
+        raise ValueError(f"sections {sorted(unknown)}: expected some of {list(SECTIONS)}")
+    parts = [summary.strip()]
+    for title in SECTIONS:
+        if title in given:
+            parts.append(f"## {title}\n\n{textwrap.dedent(given[title]).strip()}")
+    return "\n\n".join(parts) + "\n"
+
+
+def join(*texts: str) -> str:
+    """Dedented texts as paragraphs of one section."""
+    return "\n\n".join(textwrap.dedent(t).strip() for t in texts)
+
+
+ACTION = """
+    The action is mapped affinely onto the duty range [lo, hi],
+    `duty = lo + (a + 1) / 2 (hi - lo)` (:class:`~sma_gym.envs.task.DutyRange`, also the
+    env's `duty_for` / `action_for`); values outside [-1, 1] are clipped, NaN or inf
+    raise `ValueError`. Each step advances the simulator by `control_period_s` (default
+    10 ms; the report's controllers run at 1 kHz: pass `control_period_s=0.001`).
+    """
+
+REWARD = """
+    Per actuator and step, *r = -|x_true - r(t)| / stroke - energy_weight P_el / P_full*,
+    with `P_el` the mean electrical power of the step and `P_full = V^2 / R_cold` the power
+    at duty 1 (so the energy term is at most `energy_weight`); `stroke` is the usable
+    stroke (the driver's end-of-travel position, else eps0 l0). The reward uses the true
+    position, whatever the agent sees.
+    """
+
+START = """
+    The wire at rest: at ambient temperature, fully martensitic, extended (x = 0), its
+    readings held at the cold wire's values. The reference is drawn at every reset from
+    the env's generator among the `reference` kinds (levels within the actuator's
+    stroke), or set by `reset(options={"reference": name_or_dict})`.
+    """
+
+EPISODE_END = """
+    `terminated` when a wire exceeds `overheat_limit_c`; truncated by `max_episode_steps`
+    (registered: 1000 steps = 10 s at the default control period).
+    """
+
+ARGUMENTS = """
+    - `model`: preset name, model JSON path or :class:`~sma_gym.ModelConfig`.
+    - `control_period_s`: 1e-4 to 0.1 s (default 0.01).
+    - `reference`: a kind (`"step"`, `"ramp"`, `"sine"`, `"random"`, `"report-step"`,
+      `"report-sine"`), a tuple of kinds drawn from at each reset, or a dict with the
+      parameters (default: the four training kinds).
+    - `energy_weight`: 0 to 10 (default 0); `overheat_limit_c`: 40 to 500 degC (default
+      150: Flexinol's trained memory degrades when held much hotter).
+    - `position_noise_std_m`, `resistance_noise_std_ohm`: override the model's sensor noise.
+    - Every value is checked at make: a bad one, or an unknown name, raises `ValueError`
+      naming it and what was expected.
+    """
+
+PWM_MODE = """
+    - `pwm_mode`: `"averaged"` (default) or `"resolved"` (every PWM pulse integrated).
+    """
+
+RENDER_MODE = """
+    - `render_mode`: `None`, `"human"` or `"rgb_array"`: a (640, 640, 3) frame of the
+      episode so far (position and reference, duty, resistance, temperature).
+    """
+
+INFO_KEYS = task.info_list(task.INFO)
+
+VERSION_0_2 = """
+    * 0.2: `info` is flat and JSON-serialisable (`reference_description()` and the drawn
+      condition replace the nested `info["reference"]` / `info["condition"]`;
+      `reference_kind` and `condition_*` carry their numbers); unknown kwargs raise
+      `ValueError` instead of `TypeError`; `env.spec.id` carries the `sma_gym:` prefix, so
+      `gymnasium.make` resolves a logged id in any process; `render()` no longer switches
+      matplotlib's global backend; the contract is on the class and the keyword arguments
+      in its signature. Dynamics and rewards unchanged, so the ids stay `-v0`.
+    * 0.1: first release.
+    """
