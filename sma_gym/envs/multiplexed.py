@@ -25,7 +25,6 @@ from sma_gym.envs.single import (
     TRACKING,
     ReferenceSpec,
     Settings,
-    reject_unknown,
 )
 from sma_gym.model import ModelSpec
 from sma_gym.simulator import Simulator
@@ -108,14 +107,11 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         resistance_noise_std_ohm: float | None = None,
         **unknown: Any,
     ):
+        arguments = dict(locals())
         self.n = require_int_range("n_actuators", n_actuators, 1, 16)
         f = require_range("cycling_frequency_hz", cycling_frequency_hz, 100.0, 4000.0, "Hz")
-        reject_unknown(unknown, ("n_actuators", "cycling_frequency_hz", *SMAMultiplexedEnv.__init__.__kwdefaults__))
-        self.settings = Settings.create(
-            TRACKING, model=model, control_period_s=control_period_s, reference=reference,
-            energy_weight=energy_weight, overheat_limit_c=overheat_limit_c, pwm_mode="resolved",
-            position_noise_std_m=position_noise_std_m, resistance_noise_std_ohm=resistance_noise_std_ohm,
-        )
+        # PWM-resolved always: each actuator conducts only in its slot of the cycle.
+        self.settings = Settings.from_arguments(TRACKING, arguments, pwm_mode="resolved")
         self._init_rendering(render_mode, self.settings.control_period_s)
         self.multiplexer = Multiplexer(self.n, f)
         self.sim = Simulator(

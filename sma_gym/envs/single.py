@@ -83,35 +83,31 @@ class Settings:
     conditions: Conditions | None
 
     @classmethod
-    def create(
-        cls,
-        variant: Variant,
-        *,
-        model: ModelSpec,
-        control_period_s: float,
-        reference: ReferenceSpec,
-        energy_weight: float,
-        overheat_limit_c: float,
-        pwm_mode: str,
-        position_noise_std_m: float | None,
-        resistance_noise_std_ohm: float | None,
-        conditions: dict[str, Any] | None = None,
-    ) -> "Settings":
-        """Validate env kwargs; each error names the value and what was expected.
+    def from_arguments(cls, variant: Variant, arguments: dict[str, Any], **fixed: Any) -> "Settings":
+        """Validate an env's keyword arguments; each error names the value and what was expected.
 
-        ``conditions``: the robustness kwargs given (``None`` values mean "the default of
-        :class:`Conditions`"); only a randomised variant accepts them.
+        ``arguments`` is ``dict(locals())`` at the top of the env's ``__init__``: every
+        parameter of its signature (where the defaults are), and ``unknown`` for names not
+        in it, which raise ``ValueError``. ``fixed`` sets what the env does not let the user
+        choose (the multiplexed env's ``pwm_mode``). The condition kwargs (``None``: the
+        default of :class:`Conditions`) are accepted by a randomised variant only.
         """
-        m = load_model(variant.default_model if model is None else model)
+        accepted = tuple(name for name in arguments if name not in ("self", "unknown", "__class__"))
+        reject_unknown(arguments.get("unknown", {}), accepted)
+        a = {**arguments, **fixed}
+        m = load_model(variant.default_model if a["model"] is None else a["model"])
         changes = {}
-        if position_noise_std_m is not None:
-            changes["sensors.position_noise_std_m"] = require_range("position_noise_std_m", position_noise_std_m, 0.0, 1e-3, "m")
-        if resistance_noise_std_ohm is not None:
+        if a["position_noise_std_m"] is not None:
+            changes["sensors.position_noise_std_m"] = require_range(
+                "position_noise_std_m", a["position_noise_std_m"], 0.0, 1e-3, "m"
+            )
+        if a["resistance_noise_std_ohm"] is not None:
             changes["sensors.resistance_noise_std_ohm"] = require_range(
-                "resistance_noise_std_ohm", resistance_noise_std_ohm, 0.0, 1.0, "ohm"
+                "resistance_noise_std_ohm", a["resistance_noise_std_ohm"], 0.0, 1.0, "ohm"
             )
         if changes:
             m = m.with_actuator(**changes)
+        reference = a["reference"]
         names = (reference,) if isinstance(reference, (str, dict)) else tuple(reference)
         if not names:
             raise ValueError("reference = (): expected at least one reference name")
@@ -122,16 +118,16 @@ class Settings:
                 refs.resolve(name, np.random.default_rng(0), m.actuator.usable_stroke_m, "step")
             else:
                 require_choice("reference", name, refs.NAMED)
-        given = {k: v for k, v in (conditions or {}).items() if v is not None}
+        given = {key: a[key] for key in CONDITION_KWARGS if a.get(key) is not None}
         if not variant.randomised:
-            reject_unknown(given, ())
+            reject_unknown(given, accepted)
         return cls(
             model=m,
-            control_period_s=require_range("control_period_s", control_period_s, 1e-4, 0.1, "s"),
+            control_period_s=require_range("control_period_s", a["control_period_s"], 1e-4, 0.1, "s"),
             reference=names,
-            energy_weight=require_range("energy_weight", energy_weight, 0.0, 10.0),
-            overheat_limit_c=require_range("overheat_limit_c", overheat_limit_c, 40.0, 500.0, "degC"),
-            pwm_mode=require_choice("pwm_mode", pwm_mode, PWM_MODES),
+            energy_weight=require_range("energy_weight", a["energy_weight"], 0.0, 10.0),
+            overheat_limit_c=require_range("overheat_limit_c", a["overheat_limit_c"], 40.0, 500.0, "degC"),
+            pwm_mode=require_choice("pwm_mode", a["pwm_mode"], PWM_MODES),
             conditions=Conditions.from_kwargs(**given) if variant.randomised else None,
         )
 
@@ -189,13 +185,7 @@ class SMAEnv(EpisodeRendering, ImportableSpec, gym.Env):
         resistance_noise_std_ohm: float | None = None,
         **unknown: Any,
     ):
-        reject_unknown(unknown, tuple(SMAEnv.__init__.__kwdefaults__))
-        settings = Settings.create(
-            self.variant, model=model, control_period_s=control_period_s, reference=reference,
-            energy_weight=energy_weight, overheat_limit_c=overheat_limit_c, pwm_mode=pwm_mode,
-            position_noise_std_m=position_noise_std_m, resistance_noise_std_ohm=resistance_noise_std_ohm,
-        )
-        self._setup(settings, render_mode)
+        self._setup(Settings.from_arguments(self.variant, locals()), render_mode)
 
     def _setup(self, settings: Settings, render_mode: str | None) -> None:
         variant = self.variant
@@ -403,14 +393,4 @@ class SMARobustEnv(SMAEnv):
         spread: float | None = None,
         **unknown: Any,
     ):
-        reject_unknown(unknown, tuple(SMARobustEnv.__init__.__kwdefaults__))
-        settings = Settings.create(
-            self.variant, model=model, control_period_s=control_period_s, reference=reference,
-            energy_weight=energy_weight, overheat_limit_c=overheat_limit_c, pwm_mode=pwm_mode,
-            position_noise_std_m=position_noise_std_m, resistance_noise_std_ohm=resistance_noise_std_ohm,
-            conditions={
-                "supply_voltage_v": supply_voltage_v, "convection": convection,
-                "wire_diameter_m": wire_diameter_m, "spread": spread,
-            },
-        )
-        self._setup(settings, render_mode)
+        self._setup(Settings.from_arguments(self.variant, locals()), render_mode)

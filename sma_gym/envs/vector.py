@@ -32,7 +32,6 @@ from sma_gym.envs.single import (
     ReferenceSpec,
     Settings,
     Variant,
-    reject_unknown,
     reset_actuator,
 )
 from sma_gym.model import ModelSpec
@@ -161,6 +160,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         spread: float | None = None,
         **unknown: Any,
     ):
+        arguments = dict(locals())
         self.num_envs = require_int_range("num_envs", num_envs, 1, 1 << 20)
         if max_episode_steps is not None:
             max_episode_steps = require_int_range("max_episode_steps", max_episode_steps, 1, 1 << 40)
@@ -171,16 +171,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             raise ValueError(f"render_mode = {render_mode!r}: expected one of {self.metadata['render_modes']} or None")
         self.render_mode = render_mode
         self.variant = variant
-        reject_unknown(unknown, tuple(SMAVectorEnv.__init__.__kwdefaults__))
-        self.settings = Settings.create(
-            variant, model=model, control_period_s=control_period_s, reference=reference,
-            energy_weight=energy_weight, overheat_limit_c=overheat_limit_c, pwm_mode=pwm_mode,
-            position_noise_std_m=position_noise_std_m, resistance_noise_std_ohm=resistance_noise_std_ohm,
-            conditions={
-                "supply_voltage_v": supply_voltage_v, "convection": convection,
-                "wire_diameter_m": wire_diameter_m, "spread": spread,
-            },
-        )
+        self.settings = Settings.from_arguments(variant, arguments)
         self.metadata = dict(
             self.metadata,
             autoreset_mode=self.autoreset_mode,
