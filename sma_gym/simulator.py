@@ -135,6 +135,8 @@ def pack_params(
     row[L.P_F_PRE] = m.spring_preload_n
     row[L.P_SIGMA0] = p.rest_stress_pa
     row[L.P_F_COULOMB] = fx.value("coulomb_friction", "force_n")
+    row[L.P_SURR_GAIN] = fx.value("warm_surroundings", "gain_k_j")
+    row[L.P_SURR_TAU] = fx.value("warm_surroundings", "time_constant_s")
     row[L.P_FRICTION_FORM] = FRICTION_STRIBECK if fx.form("coulomb_friction") == "stribeck" else FRICTION_COULOMB
 
     row[L.P_V_SUPPLY] = d.supply_voltage_v
@@ -321,6 +323,7 @@ class Simulator:
         s[which, :] = 0.0
         s[which, L.S_T] = t0
         s[which, L.S_T_RESET] = t0
+        s[which, L.S_T_SURR] = t_amb  # the surroundings start at the ambient temperature
         s[which, L.S_XI] = 1.0
         s[which, L.S_XI_NODE0 : L.S_XI_NODE0 + L.MAX_SPREAD_NODES] = 1.0
         s[which, L.S_DIRECTION] = -1.0

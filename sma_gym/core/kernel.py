@@ -90,6 +90,8 @@ from sma_gym.core.layout import (
     P_SAG_I_REF,
     P_SIGMA0,
     P_SURFACE,
+    P_SURR_GAIN,
+    P_SURR_TAU,
     P_T_AMB,
     P_T_REF_R,
     P_T_SETTLE,
@@ -120,6 +122,7 @@ from sma_gym.core.layout import (
     S_R_TRUE,
     S_SIGMA,
     S_T,
+    S_T_SURR,
     S_TIME,
     S_TRAVEL,
     S_V,
@@ -185,16 +188,24 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
     z0 = state[i, S_XI]
     heat_cap = params[i, P_HEAT_CAP]
     t_amb = params[i, P_T_AMB]
+    t_surr = state[i, S_T_SURR]  # = t_amb unless the warm_surroundings effect is on
     area = params[i, P_AREA]
     length = params[i, P_LENGTH]
 
-    # Heat in and convection out (exponential Euler, coefficient frozen at T0).
+    # Heat in and convection out to the surroundings (exponential Euler, coefficient frozen
+    # at T0).
     h_conv = convection_coefficient(
-        t0, params[i, P_H0], params[i, P_H1], params[i, P_H2], t_amb, int(params[i, P_CONV_FORM]),
+        t0, params[i, P_H0], params[i, P_H1], params[i, P_H2], t_surr, int(params[i, P_CONV_FORM]),
         params[i, P_CONV_POWER_SCALE],
     )
-    t_pred = exponential_euler(t0, energy_j / h, h_conv * params[i, P_SURFACE], heat_cap, t_amb, h)
+    t_pred = exponential_euler(t0, energy_j / h, h_conv * params[i, P_SURFACE], heat_cap, t_surr, h)
     e_conv = energy_j - heat_cap * (t_pred - t0)
+    gain = params[i, P_SURR_GAIN]
+    if gain > 0.0:
+        # The surroundings take up the convected heat and relax to the ambient (exact for a
+        # constant source over the sub-step, so any sub-step length is stable).
+        decay = math.exp(-h / params[i, P_SURR_TAU])
+        state[i, S_T_SURR] = t_amb + (t_surr - t_amb) * decay + gain * e_conv * params[i, P_SURR_TAU] / h * (1.0 - decay)
 
     # Backward-Euler mechanics: k_ext x1 = b_ext + A sigma(x1, z).
     mass = params[i, P_MASS]
@@ -385,10 +396,10 @@ def _control_step(
         # Accuracy: the temperature may change by at most dt_max_k per sub-step.
         t_now = state[i, S_T]
         h_conv = convection_coefficient(
-            t_now, params[i, P_H0], params[i, P_H1], params[i, P_H2], params[i, P_T_AMB],
+            t_now, params[i, P_H0], params[i, P_H1], params[i, P_H2], state[i, S_T_SURR],
             int(params[i, P_CONV_FORM]), params[i, P_CONV_POWER_SCALE],
         )
-        rate = abs(power - h_conv * params[i, P_SURFACE] * (t_now - params[i, P_T_AMB])) / heat_cap
+        rate = abs(power - h_conv * params[i, P_SURFACE] * (t_now - state[i, S_T_SURR])) / heat_cap
         if rate * seg > dt_max_k:
             seg = dt_max_k / rate
         # ... and, approaching the end-of-travel cut, the position by at most P_DX_MAX: there

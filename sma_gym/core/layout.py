@@ -85,7 +85,8 @@ S_FORCE = S_E_DISSIPATED + 1  # bias-spring force k x + F_pre [N]
 S_TIME = S_FORCE + 1  # simulated time since reset [s]
 S_T_RESET = S_TIME + 1  # temperature at the last reset [degC] (energy balance)
 S_E_LATENT = S_T_RESET + 1  # latent heat released into the wire since reset [J]
-N_STATE = S_E_LATENT + 1
+S_T_SURR = S_E_LATENT + 1  # temperature of the air and parts the wire convects to [degC]
+N_STATE = S_T_SURR + 1
 
 STATE_NAMES = {
     S_X: "position_m",
@@ -109,6 +110,7 @@ STATE_NAMES = {
     S_DUTY_CMD: "duty",
     S_EOT_CUT: "end_of_travel_cut",
     S_E_LATENT: "latent_heat_released_j",
+    S_T_SURR: "surroundings_temperature_c",
 }
 """Public names of the state fields (the simulator's view names, ``Simulator.run`` records)."""
 STATE_FIELDS = {name: index for index, name in STATE_NAMES.items()}
@@ -194,6 +196,9 @@ P_DX_MAX = _NODE_END + 37  # largest position change per sub-step [m]
 # derived, for the task layer (observation scales, reward); unused by the physics
 P_STROKE = _NODE_END + 38  # usable stroke [m] (ActuatorParams.usable_stroke_m)
 P_R_COLD = _NODE_END + 39  # cold resistance [ohm] (Wire.cold_resistance_ohm)
-N_PARAMS = P_R_COLD + 1
+# warm_surroundings effect (0 gain: the wire convects to the ambient temperature)
+P_SURR_GAIN = _NODE_END + 40  # surroundings' warming per joule the wire convects [K/J]
+P_SURR_TAU = _NODE_END + 41  # surroundings' relaxation time to the ambient [s]
+N_PARAMS = P_SURR_TAU + 1
 
 PARAM_FIELDS = {name[2:].lower(): index for name, index in list(globals().items()) if name.startswith("P_")}

@@ -118,6 +118,23 @@ EFFECTS: dict[str, Effect] = {
             forms=("default", "power"),
         ),
         Effect(
+            name="warm_surroundings",
+            title="Surroundings warmed by the wire",
+            description=(
+                "The wire does not convect to an infinite room at the ambient temperature: the "
+                "air around it, the clamps, the sleigh and the housing take up part of its heat "
+                "and warm (most after long heating at high power), then relax to the ambient "
+                "over tens of seconds. The wire then cools more slowly after a long contraction "
+                "than after a short one (§5.4, §5.8). The temperature the wire convects to obeys "
+                "dT_s/dt = gain_k_j * P_conv - (T_s - T_amb) / time_constant_s."
+            ),
+            source="§5.4, §5.8",
+            parameters=(
+                _p("gain_k_j", "K/J", 0.0, 0.0, 1.0, 0.1, "warming of the surroundings per joule the wire convects"),
+                _p("time_constant_s", "s", 30.0, 2.0, 300.0, 20.0, "time the surroundings take to relax to the ambient"),
+            ),
+        ),
+        Effect(
             name="coulomb_friction",
             title="Coulomb friction",
             description=(
