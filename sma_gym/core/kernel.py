@@ -139,7 +139,7 @@ from sma_gym.electrical.sensors import (
     first_order,
     quantise,
 )
-from sma_gym.physics.mechanics import kinetic_friction, solve_step, static_friction
+from sma_gym.physics.mechanics import WireConstants, kinetic_friction, solve_step, static_friction
 from sma_gym.physics.resistance import wire_resistance
 from sma_gym.physics.thermal import convection_coefficient, exponential_euler
 
@@ -215,19 +215,11 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
     k_ext = mass / (h * h) + damping / h + k_spring
     b_ext = mass * (x0 + h * v0) / (h * h) + damping * x0 / h - f_pre
 
-    d_a = params[i, P_D_A]
-    d_m = params[i, P_D_M]
-    eps0 = params[i, P_EPS0]
-    alpha = params[i, P_ALPHA_TH]
-    sigma0 = params[i, P_SIGMA0]
-    c_a = params[i, P_C_A]
-    c_m = params[i, P_C_M]
-    a_s = params[i, P_A_S]
-    a_f = params[i, P_A_F]
-    m_s = params[i, P_M_S]
-    m_f = params[i, P_M_F]
-    lat_h = params[i, P_LATENT]
-    lat_c = params[i, P_LATENT_COOL]
+    wire = WireConstants(
+        area, length, params[i, P_D_A], params[i, P_D_M], params[i, P_EPS0], params[i, P_ALPHA_TH], t_amb,
+        params[i, P_SIGMA0], params[i, P_C_A], params[i, P_C_M], params[i, P_A_S], params[i, P_A_F],
+        params[i, P_M_S], params[i, P_M_F], params[i, P_LATENT], params[i, P_LATENT_COOL],
+    )
     for k in range(n_nodes):
         nodes0[k] = state[i, S_XI_NODE0 + k]
 
@@ -246,8 +238,7 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
     t1 = t_pred
     for attempt in range(3):
         z, x1, s1, t1 = solve_step(
-            stick, x0, t_pred, z0, k_ext, b_ext - friction, area, length, d_a, d_m, eps0, alpha, t_amb, sigma0,
-            c_a, c_m, a_s, a_f, m_s, m_f, lat_h, lat_c, n_nodes, shift_h, shift_c, weights, nodes0, nodes1, u_star,
+            stick, x0, t_pred, z0, k_ext, b_ext - friction, wire, n_nodes, shift_h, shift_c, weights, nodes0, nodes1, u_star
         )
         if f_c <= 0.0:
             break
@@ -283,7 +274,7 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
     state[i, S_E_CONVECTED] += e_conv
     state[i, S_W_MECHANICAL] += work
     state[i, S_E_DISSIPATED] += damping * v1 * v1 * h + friction * dx
-    state[i, S_E_LATENT] += heat_cap * (lat_h if z < z0 else lat_c) * (z - z0)
+    state[i, S_E_LATENT] += heat_cap * (wire.latent_heat if z < z0 else wire.latent_cool) * (z - z0)
     state[i, S_FORCE] = k_spring * x1 + f_pre
     state[i, S_R_TRUE] = _resistance(state, params, i, x1, z, t1)
 

@@ -34,9 +34,33 @@ sliding step with the kinetic force opposing the motion.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 from sma_gym._jit import njit
 from sma_gym.physics.transformation import cosine_fraction, cosine_fraction_inverse, cosine_fraction_slope
+
+class WireConstants(NamedTuple):
+    """The wire's constants the implicit step needs, passed as one argument (numba passes a
+    named tuple by value, so this costs nothing over sixteen scalars). Units as in
+    :mod:`sma_gym.core.layout`; the kernel builds it from the actuator's parameter row."""
+
+    area: float  # A [m^2]
+    length: float  # l0 [m]
+    d_a: float  # Young's modulus of austenite [Pa]
+    d_m: float  # Young's modulus of martensite [Pa]
+    eps0: float  # maximum transformation strain [-]
+    alpha: float  # thermal expansion [1/K]
+    t_amb: float  # reference temperature of the thermal strain [degC]
+    sigma0: float  # rest stress F_pre / A [Pa]
+    c_a: float  # stress coefficient of the heating branch [Pa/K]
+    c_m: float  # stress coefficient of the cooling branch [Pa/K]
+    a_s: float  # [degC]
+    a_f: float  # [degC]
+    m_s: float  # [degC]
+    m_f: float  # [degC]
+    latent_heat: float  # temperature change per unit xi while heating [K]
+    latent_cool: float  # the same while cooling [K]
+
 
 FRICTION_COULOMB = 0
 FRICTION_STRIBECK = 1
@@ -62,42 +86,13 @@ def kinetic_friction(f_c, velocity, form):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _evaluate(
-    z,
-    stick,
-    x0,
-    t_pred,
-    z0,
-    k_ext,
-    b_ext,
-    area,
-    length,
-    d_a,
-    d_m,
-    eps0,
-    alpha,
-    t_amb,
-    sigma0,
-    c_a,
-    c_m,
-    a_s,
-    a_f,
-    m_s,
-    m_f,
-    latent_heat,
-    latent_cool,
-    n_nodes,
-    shift_h,
-    shift_c,
-    weights,
-    xi_nodes0,
-    xi_nodes_out,
-    u_star,
-):
+def _evaluate(z, stick, x0, t_pred, z0, k_ext, b_ext, wire, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out, u_star):
     """Z(z) and dZ/dz for a trial mean martensite fraction z; fills xi_nodes_out.
 
     Returns (Z, dZ, x1, sigma1, t1).
     """
+    area, length, d_a, d_m, eps0, alpha, t_amb, sigma0 = wire[:8]
+    c_a, c_m, a_s, a_f, m_s, m_f, latent_heat, latent_cool = wire[8:]
     lam = latent_heat if z < z0 else latent_cool
     t1 = t_pred + lam * (z - z0)
     d = z * d_m + (1.0 - z) * d_a
@@ -145,41 +140,13 @@ def _evaluate(
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def solve_step(
-    stick,
-    x0,
-    t_pred,
-    z0,
-    k_ext,
-    b_ext,
-    area,
-    length,
-    d_a,
-    d_m,
-    eps0,
-    alpha,
-    t_amb,
-    sigma0,
-    c_a,
-    c_m,
-    a_s,
-    a_f,
-    m_s,
-    m_f,
-    latent_heat,
-    latent_cool,
-    n_nodes,
-    shift_h,
-    shift_c,
-    weights,
-    xi_nodes0,
-    xi_nodes_out,
-    u_star,
-):
+def solve_step(stick, x0, t_pred, z0, k_ext, b_ext, wire, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out, u_star):
     """One implicit step: returns (z, x1, sigma1, t1) and fills ``xi_nodes_out``.
 
     ``k_ext`` and ``b_ext`` hold the backward-Euler mechanics: the new position solves
-    k_ext x1 = b_ext + A sigma(x1, z) unless ``stick`` (then x1 = x0).
+    k_ext x1 = b_ext + A sigma(x1, z) unless ``stick`` (then x1 = x0). ``wire`` holds the
+    wire's constants (:class:`WireConstants`); the hysterons are ``n_nodes`` entries of
+    ``shift_h``, ``shift_c``, ``weights`` with their old fractions ``xi_nodes0``.
     """
     # r(z) = z - Z(z) is increasing with slope >= 1, and r(Z(z0)) has the opposite sign of
     # r(z0): the first evaluation at z0 brackets the root. Newton steps, bisection if a step
@@ -194,8 +161,7 @@ def solve_step(
     t1 = t_pred
     for it in range(80):
         big_z, dbig_z, x1, sigma1, t1 = _evaluate(
-            z, stick, x0, t_pred, z0, k_ext, b_ext, area, length, d_a, d_m, eps0, alpha, t_amb, sigma0,
-            c_a, c_m, a_s, a_f, m_s, m_f, latent_heat, latent_cool, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out, u_star,
+            z, stick, x0, t_pred, z0, k_ext, b_ext, wire, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out, u_star
         )
         r = z - big_z
         if it == 0:
