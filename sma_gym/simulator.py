@@ -26,12 +26,12 @@ from sma_gym._validation import require_choice, require_range
 from sma_gym.core import layout as L
 from sma_gym.core.kernel import advance
 from sma_gym.electrical.multiplexer import Multiplexer
-from sma_gym.electrical.pwm import RISE_DELAY, RISE_EXPONENTIAL, SAG_QUADRATIC, SAG_RESISTOR
-from sma_gym.electrical.sensors import ABBE_STEP, ABBE_WEAR
+from sma_gym.electrical.pwm import RISE_FORMS, SAG_FORMS
+from sma_gym.electrical.sensors import ABBE_FORMS, LAG_ORDERS
 from sma_gym.model import ModelConfig, ModelSpec, load_model
-from sma_gym.physics.mechanics import FRICTION_COULOMB, FRICTION_STRIBECK
+from sma_gym.physics.mechanics import FRICTION_FORMS
 from sma_gym.physics.resistance import wire_resistance
-from sma_gym.physics.thermal import CONVECTION_LAW, CONVECTION_POWER
+from sma_gym.physics.thermal import CONVECTION_FORMS, LATENT_COOLING_FACTORS
 from sma_gym.physics.transformation import hysteron_nodes
 
 PWM_MODES = ("averaged", "resolved")
@@ -78,16 +78,15 @@ def pack_params(
     h_scale = c.scale_for(w.diameter_m)
     conv_scale = fx.value("convection_change", "scale")
     conv_form = fx.form("convection_change")
+    row[L.P_CONV_FORM] = CONVECTION_FORMS[conv_form]
     if conv_form == "power":
         row[L.P_H0] = c.h0_w_m2_k * h_scale
         row[L.P_H2] = c.h2_w_m2_k3 * h_scale
-        row[L.P_CONV_FORM] = CONVECTION_POWER
         row[L.P_CONV_POWER_SCALE] = conv_scale
     else:
         row[L.P_H0] = conv_scale * c.h0_w_m2_k * h_scale
         row[L.P_H1] = conv_scale * fx.value("convection_change", "h1_w_m2_k2") * h_scale
         row[L.P_H2] = conv_scale * c.h2_w_m2_k3 * h_scale
-        row[L.P_CONV_FORM] = CONVECTION_LAW
         row[L.P_CONV_POWER_SCALE] = 1.0
     row[L.P_T_AMB] = c.ambient_temperature_c
 
@@ -100,7 +99,7 @@ def pack_params(
     # Nominal latent heat plus the latent_heat effect's change (off = 0); in kelvin per unit xi.
     latent = max(0.0, w.latent_heat_j_kg + fx.value("latent_heat", "change_j_kg")) / w.specific_heat_j_kg_k
     row[L.P_LATENT] = latent
-    row[L.P_LATENT_COOL] = latent * (0.7 if fx.form("latent_heat") == "asymmetric" else 1.0)
+    row[L.P_LATENT_COOL] = latent * LATENT_COOLING_FACTORS[fx.form("latent_heat")]
     # The transformation_spread effect adds an independent spread: variances add.
     spread_k = math.hypot(w.transformation_spread_k, fx.value("transformation_spread", "spread_k"))
     shift_h, shift_c, weights, widening_k = hysteron_nodes(
@@ -137,11 +136,11 @@ def pack_params(
     row[L.P_F_COULOMB] = fx.value("coulomb_friction", "force_n")
     row[L.P_SURR_GAIN] = fx.value("warm_surroundings", "gain_k_j")
     row[L.P_SURR_TAU] = fx.value("warm_surroundings", "time_constant_s")
-    row[L.P_FRICTION_FORM] = FRICTION_STRIBECK if fx.form("coulomb_friction") == "stribeck" else FRICTION_COULOMB
+    row[L.P_FRICTION_FORM] = FRICTION_FORMS[fx.form("coulomb_friction")]
 
     row[L.P_V_SUPPLY] = d.supply_voltage_v
     row[L.P_R_SERIES] = fx.value("supply_sag", "series_resistance_ohm")
-    row[L.P_SAG_FORM] = SAG_QUADRATIC if fx.form("supply_sag") == "quadratic" else SAG_RESISTOR
+    row[L.P_SAG_FORM] = SAG_FORMS[fx.form("supply_sag")]
     row[L.P_SAG_I_REF] = d.supply_voltage_v / w.cold_resistance_ohm
     period = 1.0 / d.pwm_frequency_hz if pwm_period_s is None else float(pwm_period_s)
     row[L.P_PWM_PERIOD] = period
@@ -150,16 +149,16 @@ def pack_params(
     row[L.P_RESOLVED] = 1.0 if pwm_mode == "resolved" else 0.0
     row[L.P_T_SETTLE] = d.settling_time_s
     row[L.P_TAU_RISE] = fx.value("pulse_settling", "rise_time_constant_s")
-    row[L.P_RISE_FORM] = RISE_DELAY if fx.form("pulse_settling") == "delay" else RISE_EXPONENTIAL
+    row[L.P_RISE_FORM] = RISE_FORMS[fx.form("pulse_settling")]
     row[L.P_EOT] = d.end_of_travel_m
     row[L.P_EOT_RELEASE] = d.end_of_travel_release_m
 
     fc = s.position_filter_cutoff_hz
     row[L.P_TAU_FILTER] = 1.0 / (2.0 * math.pi * fc) if fc > 0.0 else 0.0
     row[L.P_TAU_LAG] = fx.value("sensor_lag", "time_constant_s")
-    row[L.P_LAG_ORDER] = 2.0 if fx.form("sensor_lag") == "second-order" else 1.0
+    row[L.P_LAG_ORDER] = LAG_ORDERS[fx.form("sensor_lag")]
     row[L.P_ABBE] = fx.value("abbe_offset", "offset_m")
-    row[L.P_ABBE_FORM] = ABBE_WEAR if fx.form("abbe_offset") == "wear" else ABBE_STEP
+    row[L.P_ABBE_FORM] = ABBE_FORMS[fx.form("abbe_offset")]
     row[L.P_POS_NOISE] = s.position_noise_std_m
     row[L.P_POS_RESOLUTION] = s.position_resolution_m
     row[L.P_R_NOISE] = s.resistance_noise_std_ohm

@@ -455,3 +455,28 @@ def test_a_vanishing_quadratic_sag_gives_the_unsagged_current():
         # supply = I R + R_s I^2 / I_ref holds.
         i_ref = 10.0 / preset("standard").wire.cold_resistance_ohm
         assert current * r + r_s * current**2 / i_ref == pytest.approx(10.0, rel=1e-9)
+
+
+def test_every_declared_effect_form_has_a_meaning_in_the_physics():
+    """A form added to an effect's declaration must get its code next to the physics that
+    implements it (a missing one would fail here, not fall back to the default silently)."""
+    from sma_gym.effects import EFFECTS
+    from sma_gym.electrical.pwm import RISE_FORMS, SAG_FORMS
+    from sma_gym.electrical.sensors import ABBE_FORMS, LAG_ORDERS
+    from sma_gym.physics.mechanics import FRICTION_FORMS
+    from sma_gym.physics.thermal import CONVECTION_FORMS, LATENT_COOLING_FACTORS
+
+    tables = {
+        "pulse_settling": RISE_FORMS,
+        "supply_sag": SAG_FORMS,
+        "abbe_offset": ABBE_FORMS,
+        "sensor_lag": LAG_ORDERS,
+        "coulomb_friction": FRICTION_FORMS,
+        "convection_change": CONVECTION_FORMS,
+        "latent_heat": LATENT_COOLING_FACTORS,
+    }
+    for name, effect in EFFECTS.items():
+        if name in tables:
+            assert set(effect.forms) == set(tables[name]), name
+        elif name != "transformation_spread":  # its form is passed by name to hysteron_nodes
+            assert effect.forms == ("default",), f"{name}: forms {effect.forms} need a code table"

@@ -26,7 +26,9 @@ How to add a parameter
    ``col[L.P_NEW] = <part>.<field>`` (or the derived value).
 4. Compiled code: read ``params[i, P_NEW]`` where the term is computed (``core/kernel.py``
    reads parameters into locals and passes them to the ``physics``/``electrical`` functions,
-   which take scalars so they can be tested on their own). Import the constant by name.
+   which take scalars so they can be tested on their own; a constant of the implicit
+   mechanics step becomes a field of ``physics.mechanics.WireConstants``). Import the
+   constant by name.
 5. Delete the numba cache (``find . -name '*.nbi' -o -name '*.nbc' | xargs rm``): modules
    that import layout constants keep the old values in their cached machine code.
 6. If an env or user should see it: a named view on ``Simulator`` (parameters) or a name
@@ -40,9 +42,11 @@ An effect is an optional term that is off (vanishes) at its *off* value.
    bounds, forms, the outputs it changes). The diagnosis workflow picks it up as a
    candidate from there.
 2. Its parameters go through steps 2-4 above; in :func:`~sma_gym.simulator.pack_params`
-   read them with ``fx.value("<effect>", "<parameter>")`` and, if it has several forms,
-   turn ``fx.form("<effect>")`` into a numeric ``P_*_FORM`` code (the codes are constants
-   of the physics module that implements the term, e.g. ``FRICTION_STRIBECK``).
+   read them with ``fx.value("<effect>", "<parameter>")``. If it has several forms, the
+   physics module that implements the term maps each form name to a numeric code
+   (``FRICTION_FORMS = {"default": FRICTION_COULOMB, "stribeck": ...}``) and pack_params
+   stores ``FRICTION_FORMS[fx.form("coulomb_friction")]`` in a ``P_*_FORM`` field; a test
+   checks that every declared form has its code.
 3. Write the term in the physics module it belongs to so that the off value makes it
    vanish exactly (the report's model must stay bit for bit the same), and test that.
 4. A new state quantity (a filter stage, an accumulator): an ``S_*`` constant below, its

@@ -25,11 +25,15 @@ RISE_EXPONENTIAL = 0
 RISE_DELAY = 1
 """Synthetic-data form of ``pulse_settling``: no current for 1.5 tau, then full current
 (the same energy loss per long pulse as the exponential rise)."""
+RISE_FORMS = {"default": RISE_EXPONENTIAL, "delay": RISE_DELAY}
+"""Code of each form of the ``pulse_settling`` effect."""
 
 SAG_RESISTOR = 0
 SAG_QUADRATIC = 1
 """Synthetic-data form of ``supply_sag``: the sag grows with the square of the current,
 equal to the resistor's at the reference current."""
+SAG_FORMS = {"default": SAG_RESISTOR, "quadratic": SAG_QUADRATIC}
+"""Code of each form of the ``supply_sag`` effect."""
 
 
 @njit(cache=True, inline="always", error_model="numpy")

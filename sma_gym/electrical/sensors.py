@@ -23,6 +23,11 @@ ABBE_STEP = 0
 ABBE_WEAR = 1
 """Synthetic-data form of ``abbe_offset``: the offset grows linearly with accumulated travel,
 from 30 % of its value to all of it over the first 50 mm."""
+ABBE_FORMS = {"default": ABBE_STEP, "wear": ABBE_WEAR}
+"""Code of each form of the ``abbe_offset`` effect."""
+
+LAG_ORDERS = {"default": 1, "second-order": 2}
+"""Order of the lag of each form of the ``sensor_lag`` effect."""
 
 DIRECTION_THRESHOLD_M_S = 1e-4
 """Speed above which a new direction of motion is registered (Abbe offset switching)."""

@@ -65,6 +65,8 @@ class WireConstants(NamedTuple):
 FRICTION_COULOMB = 0
 FRICTION_STRIBECK = 1
 """Synthetic-data form: static force 1.5 F_c falling to F_c over a Stribeck velocity of 2 mm/s."""
+FRICTION_FORMS = {"default": FRICTION_COULOMB, "stribeck": FRICTION_STRIBECK}
+"""Code of each form of the ``coulomb_friction`` effect."""
 
 _STRIBECK_STATIC_RATIO = 1.5
 _STRIBECK_VELOCITY = 2e-3

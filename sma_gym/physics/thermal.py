@@ -25,6 +25,13 @@ CONVECTION_POWER = 1
 """Synthetic-data form of ``convection_change``: nominal h times a natural-convection
 power law in the excess temperature, scale * ((T - T_amb) / 80 K) ** 0.25."""
 
+CONVECTION_FORMS = {"default": CONVECTION_LAW, "power": CONVECTION_POWER}
+"""Code of each form of the ``convection_change`` effect."""
+
+LATENT_COOLING_FACTORS = {"default": 1.0, "asymmetric": 0.7}
+"""Latent heat released while cooling, as a fraction of that absorbed while heating, for
+each form of the ``latent_heat`` effect."""
+
 
 @njit(cache=True, inline="always", error_model="numpy")
 def convection_coefficient(t_c, h0, h1, h2, t_amb, form, power_scale):
