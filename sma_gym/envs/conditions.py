@@ -14,7 +14,7 @@ resistivity +-5 % (``spread`` scales all of these; 0 switches them off).
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -156,14 +156,3 @@ def condition_info(condition: dict[str, Any]) -> dict[str, float | bool]:
         flat[key] = condition["convection"] == "forced" if name == "forced_convection" else float(condition[name])
     return flat
 
-
-def chapter7_conditions() -> Sequence[tuple[str, dict[str, Any]]]:
-    """The report's chapter-7 test conditions as robustness-env kwargs (no spread)."""
-    return (
-        ("standard", {"supply_voltage_v": 10.0, "convection": "natural", "wire_diameter_m": 0.3e-3, "spread": 0.0}),
-        ("forced convection", {"supply_voltage_v": 10.0, "convection": "forced", "wire_diameter_m": 0.3e-3, "spread": 0.0}),
-        ("5 V", {"supply_voltage_v": 5.0, "convection": "natural", "wire_diameter_m": 0.3e-3, "spread": 0.0}),
-        ("15 V", {"supply_voltage_v": 15.0, "convection": "natural", "wire_diameter_m": 0.3e-3, "spread": 0.0}),
-        ("0.2 mm wire", {"supply_voltage_v": 10.0, "convection": "natural", "wire_diameter_m": 0.2e-3, "spread": 0.0}),
-        ("0.5 mm wire", {"supply_voltage_v": 10.0, "convection": "natural", "wire_diameter_m": 0.5e-3, "spread": 0.0}),
-    )

@@ -69,7 +69,6 @@ def reject_unknown(unknown: dict[str, Any], accepted: tuple[str, ...]) -> None:
     raise ValueError(f"unknown env kwargs {sorted(unknown)}: expected some of {list(accepted)}")
 
 
-
 @dataclass(frozen=True)
 class Settings:
     """Validated env kwargs shared by the single envs, the multiplexed env and the vector env."""
