@@ -12,6 +12,8 @@ from __future__ import annotations
 import textwrap
 
 from sma_gym.envs import task
+from sma_gym.envs.references import NAMED
+from sma_gym.simulator import PWM_MODES
 
 SECTIONS = (
     "Description",
@@ -46,6 +48,11 @@ def join(*texts: str) -> str:
     return "\n\n".join(textwrap.dedent(t).strip() for t in texts)
 
 
+def arguments(*items: str) -> str:
+    """Dedented lists of arguments as one list, then :data:`CHECKED`."""
+    return "\n".join(textwrap.dedent(t).strip() for t in items) + "\n\n" + CHECKED
+
+
 ACTION = """
     The action is mapped affinely onto the duty range [lo, hi],
     `duty = lo + (a + 1) / 2 (hi - lo)` (:class:`~sma_gym.envs.task.DutyRange`, also the
@@ -74,21 +81,25 @@ EPISODE_END = """
     (registered: 1000 steps = 10 s at the default control period).
     """
 
-ARGUMENTS = """
+ARGUMENTS = f"""
     - `model`: preset name, model JSON path or :class:`~sma_gym.ModelConfig`.
-    - `control_period_s`: 1e-4 to 0.1 s (default 0.01).
-    - `reference`: a kind (`"step"`, `"ramp"`, `"sine"`, `"random"`, `"report-step"`,
-      `"report-sine"`), a tuple of kinds drawn from at each reset, or a dict with the
-      parameters (default: the four training kinds).
-    - `energy_weight`: 0 to 10 (default 0); `overheat_limit_c`: 40 to 500 degC (default
-      150: Flexinol's trained memory degrades when held much hotter).
+    - `control_period_s`: 1e-4 to 0.1 s (default {task.DEFAULT_CONTROL_PERIOD_S:g}).
+    - `reference`: a kind ({", ".join(f"`{k!r}`" for k in NAMED)}), a tuple of kinds drawn
+      from at each reset, or a dict with the parameters (default {task.DEFAULT_REFERENCE}).
+    - `energy_weight`: 0 to 10 (default {task.DEFAULT_ENERGY_WEIGHT:g}); `overheat_limit_c`:
+      40 to 500 degC (default {task.DEFAULT_OVERHEAT_C:g}: Flexinol's trained memory
+      degrades when held much hotter).
     - `position_noise_std_m`, `resistance_noise_std_ohm`: override the model's sensor noise.
-    - Every value is checked at make: a bad one, or an unknown name, raises `ValueError`
-      naming it and what was expected.
     """
 
-PWM_MODE = """
-    - `pwm_mode`: `"averaged"` (default) or `"resolved"` (every PWM pulse integrated).
+CHECKED = (
+    "Every value is checked when the env is made: a bad one, or an unknown name, raises "
+    "`ValueError` naming it and what was expected."
+)
+
+PWM_MODE = f"""
+    - `pwm_mode`: {", ".join(f"`{m!r}`" for m in PWM_MODES)} (default `{task.DEFAULT_PWM_MODE!r}`;
+      `'resolved'` integrates every PWM pulse).
     """
 
 RENDER_MODE = """

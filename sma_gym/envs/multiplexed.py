@@ -68,7 +68,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
             docs.INFO_KEYS,
             "Each actuator's reference in full: `env.unwrapped.reference_description()` (a list).",
         ),
-        Arguments=docs.join(
+        Arguments=docs.arguments(
             docs.RENDER_MODE,
             """
             - `n_actuators`: 1 to 16 (default 4).
@@ -76,7 +76,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
               compromise at 10 V).
             """,
             docs.ARGUMENTS,
-            "The physics is always PWM-resolved: there is no `pwm_mode`.",
+            "- No `pwm_mode`: the physics is always PWM-resolved.",
         ),
         Version_History=docs.join(
             """

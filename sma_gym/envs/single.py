@@ -20,15 +20,15 @@ from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs import references as refs
 from sma_gym.envs.conditions import CONDITION_INFO, CONDITION_KWARGS, Conditions, condition_info
 from sma_gym.envs.render import EpisodeRendering
+from sma_gym.envs.task import (
+    DEFAULT_CONTROL_PERIOD_S,
+    DEFAULT_ENERGY_WEIGHT,
+    DEFAULT_OVERHEAT_C,
+    DEFAULT_PWM_MODE,
+    DEFAULT_REFERENCE,
+)
 from sma_gym.model import ModelConfig, ModelSpec, load_model
 from sma_gym.simulator import PWM_MODES, Simulator
-
-DEFAULT_CONTROL_PERIOD_S = 10e-3
-DEFAULT_REFERENCE: tuple[str, ...] = refs.TRAINING_KINDS
-DEFAULT_ENERGY_WEIGHT = 0.0
-DEFAULT_OVERHEAT_C = 150.0
-"""Flexinol's trained memory degrades when the wire is held much hotter."""
-DEFAULT_PWM_MODE = "averaged"
 
 _ONE_ACTUATOR = np.zeros(1, dtype=np.int64)
 
@@ -290,7 +290,7 @@ class SMATrackingEnv(SMAEnv):
             docs.INFO_KEYS,
             "The episode's reference in full: `env.unwrapped.reference_description()`.",
         ),
-        Arguments=docs.join(docs.RENDER_MODE, docs.ARGUMENTS, docs.PWM_MODE),
+        Arguments=docs.arguments(docs.RENDER_MODE, docs.ARGUMENTS, docs.PWM_MODE),
         Version_History=docs.VERSION_0_2,
     )
 
@@ -325,7 +325,7 @@ class SMASelfSensingEnv(SMAEnv):
         Starting_State=docs.START,
         Episode_End=docs.EPISODE_END,
         Info=docs.join("As the tracking env:", docs.INFO_KEYS),
-        Arguments=docs.join(docs.RENDER_MODE, docs.ARGUMENTS, docs.PWM_MODE),
+        Arguments=docs.arguments(docs.RENDER_MODE, docs.ARGUMENTS, docs.PWM_MODE),
         Version_History=docs.VERSION_0_2,
     )
 
@@ -358,7 +358,7 @@ class SMARobustEnv(SMAEnv):
         Info=docs.join(
             "The tracking env's keys,", docs.INFO_KEYS, "and the drawn condition:", task.info_list(CONDITION_INFO)
         ),
-        Arguments=docs.join(
+        Arguments=docs.arguments(
             docs.RENDER_MODE,
             docs.ARGUMENTS,
             docs.PWM_MODE,

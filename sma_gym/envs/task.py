@@ -29,10 +29,21 @@ import numpy as np
 
 from sma_gym._jit import njit
 from sma_gym.core import layout as L
-from sma_gym.envs.references import N_PARAMS, N_WAYPOINTS, Reference, evaluate
+from sma_gym.envs.references import N_PARAMS, N_WAYPOINTS, TRAINING_KINDS, Reference, evaluate
 
 if TYPE_CHECKING:
     from sma_gym.simulator import Simulator
+
+# --------------------------------------------------------------------------------------
+# Defaults of the env keyword arguments (the env signatures and docstrings use these)
+# --------------------------------------------------------------------------------------
+DEFAULT_CONTROL_PERIOD_S = 10e-3
+DEFAULT_REFERENCE: tuple[str, ...] = TRAINING_KINDS
+DEFAULT_ENERGY_WEIGHT = 0.0
+DEFAULT_OVERHEAT_C = 150.0
+"""Flexinol's trained memory degrades when the wire is held much hotter."""
+DEFAULT_PWM_MODE = "averaged"
+
 
 # --------------------------------------------------------------------------------------
 # Action

@@ -95,7 +95,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             "and for the robustness variant the drawn condition:",
             task.info_list(CONDITION_INFO),
         ),
-        Arguments=docs.join(
+        Arguments=docs.arguments(
             """
             - `num_envs`: number of sub-envs (1 to 2**20).
             - `variant`: which single-actuator env (:data:`~sma_gym.envs.single.TRACKING`,
