@@ -1,6 +1,7 @@
 """The evaluation harness: any policy through the report's experiments, scored its way.
 
-``sma-gym evaluate --out DIR [--policy PATH ...] [--json]`` (or :func:`evaluate`) runs:
+``sma-gym evaluate --out DIR [--policy PATH ...] [--json]`` (:mod:`agents.commands`) or
+:func:`evaluate` runs:
 
 * **Table 6.1** (§6): the ten controller configurations under standard conditions on the
   8 mm step and the 0.1 Hz, 3 mm sine: overshoot, steady-state error, largest tracking
@@ -33,13 +34,13 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
-from agents.controllers import ALL_SPECS, PID, VSC3, VSC4, ControllerSpec, with_feedforward
-from agents.policies import AgentPolicy, ControllerPolicy, SelfSensingPolicy
+from agents.controllers import ALL_SPECS, PID, VSC3, VSC4, ControllerSpec, spec_by_label, with_feedforward
+from agents.policies import ControllerPolicy, SelfSensingPolicy
+from agents.trained import AgentPolicy
 
 STEP_SECONDS = 6.0
 STEP_TIME_S = 0.5
@@ -107,8 +108,8 @@ class PolicyEntry:
 
 
 def baseline(spec: ControllerSpec | str, self_sensing: bool = False) -> PolicyEntry:
-    from agents.controllers import spec_by_label
-
+    """The report's controller ``spec`` (a label or a spec) as an entry; ``self_sensing``:
+    fed by the position estimated from resistance, on the self-sensing env."""
     s = spec_by_label(spec) if isinstance(spec, str) else spec
     if self_sensing:
         return PolicyEntry(
@@ -519,32 +520,3 @@ def evaluate(
         with_sensor = [e for e in base if e.name in ("PID", "VSC3 + FF")]
         run_table_6_1(sensing + sensing_agents + with_sensor, results, seeds, condition="self-sensing", model="forced-convection")
     return results
-
-
-def main(
-    out: str | None,
-    policies: Sequence[str],
-    as_json: bool,
-    experiments: Sequence[str],
-    n_seeds: int,
-    baselines: Sequence[str] | None = None,
-) -> int:
-    from agents.policies import load_policy
-    from agents.report import write_report
-
-    if n_seeds < 1:
-        raise ValueError(f"seeds = {n_seeds!r}: expected an integer >= 1")
-    agents = [load_policy(p) for p in policies]
-    chosen = None if baselines is None else [baseline(b) for b in baselines]
-    results = evaluate(agents, experiments, seeds=tuple(range(n_seeds)), baselines=chosen)
-    if out:
-        paths = write_report(results, Path(out))
-    if as_json:
-        print(results.to_json())
-    else:
-        from agents.report import table_6_1_markdown
-
-        print(table_6_1_markdown(results) if "6.1" in experiments else f"{len(results.records)} metrics")
-        if out:
-            print(f"\nreport written to {Path(out).resolve() / 'evaluation.md'} ({len(paths)} files)")
-    return 0

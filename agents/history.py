@@ -9,9 +9,9 @@ the default control period). :class:`HistoryFeatures` appends exponential moving
 of the ``last_duty`` feature at 0.3, 1 and 3 s, of the measured position (or resistance,
 without a position sensor) at 1 s, and the change of that signal since the last step.
 
-The same class serves training (:class:`HistoryVecEnv`, a stable-baselines3 VecEnv
-wrapper) and evaluation (:class:`agents.policies.AgentPolicy` keeps one internally), so
-the agent sees identical features in both.
+The same class serves training (:class:`agents.training.envs.HistoryVecEnv`, a
+stable-baselines3 VecEnv wrapper) and evaluation (:class:`agents.trained.AgentPolicy` keeps
+one internally), so the agent sees identical features in both.
 """
 
 from __future__ import annotations
@@ -21,7 +21,6 @@ from typing import Sequence
 
 import numpy as np
 from gymnasium import spaces
-from stable_baselines3.common.vec_env import VecEnvWrapper
 
 DUTY_TIME_CONSTANTS_S = (0.3, 1.0, 3.0)
 SIGNAL_TIME_CONSTANT_S = 1.0
@@ -91,33 +90,3 @@ class HistoryFeatures:
     def _augment(self, obs: np.ndarray, change: np.ndarray) -> np.ndarray:
         extra = np.concatenate([self.ema, self.signal_ema[:, None], np.clip(10.0 * change, -1.0, 1.0)[:, None]], axis=1)
         return np.concatenate([obs, extra], axis=1).astype(np.float32)
-
-
-class HistoryVecEnv(VecEnvWrapper):
-    """SB3 VecEnv wrapper appending :class:`HistoryFeatures` to the observations."""
-
-    def __init__(self, venv, history: HistoryFeatures):
-        if history.n != venv.num_envs:
-            raise ValueError(f"history features for {history.n} envs: expected {venv.num_envs} (the vector env's num_envs)")
-        self.history = history
-        super().__init__(venv, observation_space=self.history.observation_space(venv.observation_space))
-
-    def reset(self):
-        return self.history.reset(np.asarray(self.venv.reset(), dtype=float))
-
-    def step_wait(self):
-        obs, rewards, dones, infos = self.venv.step_wait()
-        terminal = {
-            int(i): np.asarray(infos[i]["terminal_observation"], dtype=float)
-            for i in np.flatnonzero(dones)
-            if "terminal_observation" in infos[i]
-        }
-        out, ended = self.history.update(np.asarray(obs, dtype=float), dones, terminal)
-        for i, last in ended.items():
-            infos[i]["terminal_observation"] = last
-        return out, rewards, dones, infos
-
-
-def make_history_vec_env(venv, env_id: str, env_kwargs: dict) -> HistoryVecEnv:
-    """Wrap ``venv`` (copies of ``env_id`` made with ``env_kwargs``) with history features."""
-    return HistoryVecEnv(venv, HistoryFeatures.for_env(venv.num_envs, env_id, env_kwargs))

@@ -18,21 +18,21 @@ n actuators) are handled at once; integrators and filters restart where
 :class:`SelfSensingPolicy` is the same controller fed by a position estimated from the
 resistance, with a calibration fitted to a heating sweep (§4.2).
 
-:func:`load_policy` opens a trained stable-baselines3 model written by ``train.py``.
+Trained models (written by ``train.py``) are opened by :func:`agents.trained.load_policy`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from agents.controllers import Controller, ControllerSpec, spec_by_label
+from sma_gym.envs.task import DutyRange
 
 
-def _env_attr(env: Any, name: str, per_env: bool = False) -> Any:
+def env_attr(env: Any, name: str, per_env: bool = False) -> Any:
     """Read an attribute of a Gymnasium env, vector env or SB3 VecEnv.
 
     ``per_env``: a number that may differ between sub-envs (a scale): an adapter's
@@ -52,12 +52,12 @@ class ControllerPolicy:
     def __init__(self, spec: ControllerSpec | str, env: Any, filter_cutoff_hz: float | None = None):
         self.spec = spec_by_label(spec) if isinstance(spec, str) else spec
         self.name = self.spec.label
-        self.feature_names = tuple(_env_attr(env, "feature_names"))
+        self.feature_names = tuple(env_attr(env, "feature_names"))
         self.k = len(self.feature_names)
-        self.dt = float(_env_attr(env, "control_period_s"))
-        self.duty_range = tuple(_env_attr(env, "duty_range"))
-        self.position_scale_m = np.asarray(_env_attr(env, "position_scale_m", per_env=True), dtype=float)
-        self.resistance_scale_ohm = np.asarray(_env_attr(env, "resistance_scale_ohm", per_env=True), dtype=float)
+        self.dt = float(env_attr(env, "control_period_s"))
+        self.duty_range = DutyRange(*env_attr(env, "duty_range"))
+        self.position_scale_m = np.asarray(env_attr(env, "position_scale_m", per_env=True), dtype=float)
+        self.resistance_scale_ohm = np.asarray(env_attr(env, "resistance_scale_ohm", per_env=True), dtype=float)
         self._filter_cutoff_hz = filter_cutoff_hz
         self._controller: Controller | None = None
         self._index = {name: i for i, name in enumerate(self.feature_names)}
@@ -94,8 +94,7 @@ class ControllerPolicy:
         x = np.broadcast_to(x, (n,)) if np.ndim(x) == 0 else x
         duty = self._controller(x, r, rate)
         # The env's duty range applies as a cap (multiplexed: at most 1/n per actuator, §9.1).
-        lo, hi = self.duty_range
-        action = 2.0 * (np.clip(duty, lo, hi) - lo) / (hi - lo) - 1.0
+        action = self.duty_range.action_for(np.clip(duty, *self.duty_range))
         action = action.reshape(n_batch, units).astype(np.float32)
         return (action[0] if single else action), None
 
@@ -154,202 +153,11 @@ class SelfSensingPolicy(ControllerPolicy):
         self.name = f"{self.spec.label} (self-sensing)"
         if calibration is None:
             if model is None:
-                model = _env_attr(env, "settings").model
-            calibration = ResistanceCalibration.fit(model, duty_range=tuple(_env_attr(env, "duty_range")))
+                model = env_attr(env, "settings").model
+            calibration = ResistanceCalibration.fit(model, duty_range=tuple(env_attr(env, "duty_range")))
         self.calibration = calibration
 
     def position_m(self, features: np.ndarray, scale: np.ndarray) -> np.ndarray:
         r_scale = self._scale(self.resistance_scale_ohm, features.shape[0], features.shape[1])
         resistance = r_scale * (1.0 + features[..., self._index["resistance"]] / 10.0)
         return self.calibration.position_m(resistance)
-
-
-# --------------------------------------------------------------------------------------
-# Trained agents
-# --------------------------------------------------------------------------------------
-POLICY_CARD_SUFFIX = ".json"
-
-
-def _sb3(name: str) -> Any:
-    import stable_baselines3
-
-    return getattr(stable_baselines3, name)
-
-
-POLICY_ALGOS = {"SAC": lambda: _sb3("SAC"), "PPO": lambda: _sb3("PPO"), "TD3": lambda: _sb3("TD3")}
-"""Algorithms a card may name, each a loader of its stable-baselines3 class (imported lazily)."""
-
-POLICY_ENV_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0")
-"""Env ids a card may name: those train.py trains on and ``sma-gym evaluate`` scores (an agent
-of any other id would be silently left out of every table)."""
-
-
-@dataclass
-class AgentPolicy:
-    """A trained stable-baselines3 model plus what is needed to evaluate it like it trained.
-
-    ``frame_stack`` is the number of stacked observations (SB3's ``VecFrameStack``) the
-    model expects; the evaluation harness wraps its env accordingly.
-    """
-
-    model: Any
-    name: str
-    env_id: str
-    env_kwargs: dict
-    frame_stack: int = 1
-    history: str = "none"
-    """``"ema"``: the model expects :class:`agents.history.HistoryFeatures` appended; the
-    policy computes them from the observations it is given, as training did."""
-    residual: str | None = None
-    """A controller label (e.g. ``"VSC3 + FF"``): the model is a residual on top of it
-    (:mod:`agents.residual`); the policy runs that controller, as training did."""
-    residual_scale: float = 0.5
-
-    def __post_init__(self) -> None:
-        self._features = None
-        self._residual = None
-
-    def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        obs = np.asarray(observation, dtype=float)
-        single = obs.ndim == 1
-        batch = obs[None, :] if single else obs
-        if episode_start is not None:
-            starts = np.asarray(episode_start, dtype=bool).reshape(-1)
-        else:  # no flags: the first call starts an episode, later calls continue it
-            starts = np.full(len(batch), self._features is None and self._residual is None)
-        if self.residual is not None:
-            if self._residual is None:
-                import gymnasium as gym
-
-                import sma_gym  # noqa: F401
-                from agents.residual import ResidualStep
-
-                env = gym.make("sma_gym:" + self.env_id, **self.env_kwargs)
-                self._residual = ResidualStep(env, self.residual, self.residual_scale)
-                env.close()
-            batch = self._residual.observe(batch, starts)
-        if self.history == "ema":
-            batch = self._with_history(batch, starts)
-        action, state = self.model.predict(batch, state=state, episode_start=episode_start, deterministic=deterministic)
-        if self._residual is not None:
-            action = self._residual.action(action)
-        return (action[0] if single else action), state
-
-    def _with_history(self, batch: np.ndarray, starts: np.ndarray) -> np.ndarray:
-        from agents.history import HistoryFeatures
-
-        if self._features is None or self._features.n != batch.shape[0]:
-            self._features = HistoryFeatures.for_env(batch.shape[0], self.env_id, self.env_kwargs)
-            return self._features.reset(batch)
-        out, _ = self._features.update(batch, starts)
-        return out
-
-    def reset(self) -> None:
-        self._features = None
-        self._residual = None
-
-
-def card_path(model_path: str | Path) -> Path:
-    """The card of a model zip: ``<name>.json`` beside ``<name>.zip``."""
-    return Path(model_path).with_suffix(POLICY_CARD_SUFFIX)
-
-
-def save_policy(model: Any, path: str | Path, card: dict[str, Any]) -> Path:
-    """Save ``model`` to ``path`` (a ``.zip``) and then its card, each atomically.
-
-    The card records the SHA-256 of the zip it describes, so a card can never be read as
-    describing another run's model (:func:`read_card` checks it). The zip is written
-    first: an interrupt between the two leaves a zip whose card is missing or stale, which
-    the reader refuses by name, never a card pointing at a model that does not exist.
-    """
-    from sma_gym._io import atomic_path
-
-    target = Path(path)
-    with atomic_path(target) as tmp:
-        model.save(tmp)
-    write_card(target, card)
-    return target
-
-
-def write_card(model_path: str | Path, card: dict[str, Any]) -> Path:
-    """Write (atomically) the card of an existing model zip, with the zip's SHA-256."""
-    from sma_gym._io import sha256_file, write_json
-
-    return write_json(card_path(model_path), {**card, "model_sha256": sha256_file(model_path)})
-
-
-def read_card(model_path: str | Path) -> dict[str, Any]:
-    """The validated card of a model zip written by ``train.py``.
-
-    Raises ``ValueError`` naming the file when the card is missing, is not a JSON object,
-    lacks a field, names an unknown env id or algorithm, or when its ``model_sha256`` is
-    not the hash of the zip beside it (the zip was replaced, e.g. by another run).
-    """
-    from sma_gym._io import read_json_object, sha256_file
-
-    zip_path = Path(model_path)
-    path = card_path(zip_path)
-    if not path.exists():
-        raise ValueError(
-            f"policy {str(zip_path)!r}: no card {str(path)!r} beside it; a model without its card is "
-            "incomplete (interrupted training?) or not written by train.py"
-        )
-    card = read_json_object(path, "policy card")
-
-    def bad(field: str, expected: str) -> ValueError:
-        return ValueError(f"policy card {str(path)!r}: {field} = {card.get(field)!r}: expected {expected}")
-
-    if card.get("format") != "sma-gym-policy":
-        raise bad("format", "'sma-gym-policy' (a card written by train.py)")
-    if card.get("algo") not in POLICY_ALGOS:
-        raise bad("algo", f"one of {', '.join(POLICY_ALGOS)}")
-    if card.get("env_id") not in POLICY_ENV_IDS:
-        raise bad("env_id", f"one of {', '.join(POLICY_ENV_IDS)}")
-    if not isinstance(card.get("env_kwargs", {}), dict):
-        raise bad("env_kwargs", "a JSON object of make kwargs")
-    frame_stack = card.get("frame_stack", 1)
-    if isinstance(frame_stack, bool) or not isinstance(frame_stack, int) or frame_stack < 1:
-        raise bad("frame_stack", "an integer >= 1")
-    if card.get("history", "none") not in ("none", "ema"):
-        raise bad("history", "'none' or 'ema'")
-    if card.get("residual") is not None and not isinstance(card.get("residual"), str):
-        raise bad("residual", "null or a controller label such as 'VSC3 + FF'")
-    scale = card.get("residual_scale", 0.5)
-    if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0.0 < scale <= 1.0:
-        raise bad("residual_scale", "a number in (0, 1]")
-    digest = card.get("model_sha256")
-    if not isinstance(digest, str) or len(digest) != 64:
-        raise bad("model_sha256", "the SHA-256 (64 hex digits) of the model zip it describes")
-    if digest != sha256_file(zip_path):
-        raise ValueError(
-            f"policy {str(zip_path)!r}: its card {str(path)!r} describes another model (SHA-256 mismatch); "
-            "the zip was replaced after the card was written, so the card cannot be trusted"
-        )
-    return card
-
-
-def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
-    """Open a model saved by ``train.py`` (``<name>.zip`` with its card ``<name>.json``).
-
-    The card is required and must describe this very zip (see :func:`read_card`).
-    """
-    p = Path(path)
-    if p.suffix != ".zip":
-        p = p.with_suffix(".zip")
-    if not p.is_file():
-        raise ValueError(f"policy = {str(path)!r}: no such file (expected a stable-baselines3 .zip written by train.py)")
-    card = read_card(p)
-    try:
-        model = POLICY_ALGOS[card["algo"]]().load(str(p), device="cpu")
-    except Exception as err:  # noqa: BLE001 - SB3 raises many types for a corrupt zip
-        raise ValueError(f"policy = {str(path)!r}: not a {card['algo']} model ({err})") from None
-    return AgentPolicy(
-        model=model,
-        name=name or card.get("name") or p.stem,
-        env_id=card["env_id"],
-        env_kwargs=dict(card.get("env_kwargs", {})),
-        frame_stack=int(card.get("frame_stack", 1)),
-        history=str(card.get("history", "none")),
-        residual=card.get("residual"),
-        residual_scale=float(card.get("residual_scale", 0.5)),
-    )

@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 from typing import Sequence
 
+from agents.controllers import ALL_SPECS
 from agents.evaluation import CHAPTER_8_CASES, TABLE_6_1, Results
 from sma_gym._io import write_text
 from sma_gym.electrical.multiplexer import io_counts
@@ -27,8 +28,6 @@ def _policies(results: Results, experiment: str) -> list[str]:
 def plot_groups(policies: Sequence[str]) -> dict[str, list[str]]:
     """Split policy names into the report's controllers (without / with feedforward), their
     self-sensing variants, and everything else (trained agents), which every plot shows."""
-    from agents.controllers import ALL_SPECS
-
     labels = {s.label for s in ALL_SPECS}
     groups: dict[str, list[str]] = {"without_ff": [], "with_ff": [], "self_sensing": [], "agents": []}
     for p in policies:

@@ -3,24 +3,39 @@
 Every subcommand checks all its arguments (an ``--out`` that cannot be written included)
 before it does any work, and exits 2 with a message naming the argument; an output folder
 is locked while a command writes to it (:func:`sma_gym._io.locked_folder`).
+
+``bench``, ``diagnose`` and ``synth`` are defined here. Other packages add subcommands
+through the ``sma_gym.commands`` entry-point group (as pytest finds its plugins), each
+entry a :class:`Command`; this package's ``agents`` declares ``fidelity`` and ``evaluate``
+that way in ``pyproject.toml``, because they run the report's controllers, which
+``sma_gym`` does not import (the dependency goes one way: ``agents`` uses ``sma_gym``).
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-from typing import Sequence
+from dataclasses import dataclass
+from importlib.metadata import entry_points
+from typing import Callable, Sequence
+
+COMMANDS_GROUP = "sma_gym.commands"
+"""Entry-point group of the subcommands other packages add (each names a :class:`Command`)."""
 
 
-def _fidelity(args: argparse.Namespace) -> int:
-    from sma_gym import fidelity
-    from sma_gym._io import check_output_folder, locked_folder
+@dataclass(frozen=True)
+class Command:
+    """One subcommand of ``sma-gym``.
 
-    if args.out is None:
-        return fidelity.main(args.out, args.json, quick=args.quick)
-    check_output_folder(args.out)
-    with locked_folder(args.out):
-        return fidelity.main(args.out, args.json, quick=args.quick)
+    ``add_arguments`` declares its options on its parser; ``run`` does the work and returns
+    the exit code, raising ``ValueError`` for a bad argument (printed, exit code 2).
+    """
+
+    name: str
+    help: str
+    add_arguments: Callable[[argparse.ArgumentParser], None]
+    run: Callable[[argparse.Namespace], int]
+    description: str | None = None
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -29,39 +44,14 @@ def _bench(args: argparse.Namespace) -> int:
     return bench.main(as_json=args.json, repeats=args.repeats)
 
 
-def _evaluate(args: argparse.Namespace) -> int:
-    from agents import evaluation
-    from agents.policies import load_policy
-    from sma_gym._io import check_output_folder, locked_folder
-
-    experiments = [e.strip() for e in args.experiments.split(",") if e.strip()]
-    baselines = [b.strip() for b in args.baselines.split(",") if b.strip()] if args.baselines else None
-    # Everything checked before the (long) evaluation starts.
-    for e in experiments:
-        if e not in evaluation.EXPERIMENTS:
-            raise ValueError(f"--experiments {e!r}: expected a comma-separated subset of {', '.join(evaluation.EXPERIMENTS)}")
-    if not experiments:
-        raise ValueError(f"--experiments {args.experiments!r}: expected at least one of {', '.join(evaluation.EXPERIMENTS)}")
-    if args.seeds < 1:
-        raise ValueError(f"--seeds {args.seeds}: expected an integer >= 1")
-    for b in baselines or []:
-        evaluation.baseline(b)
-    for policy in args.policy or []:
-        load_policy(policy)  # card, hash and zip checked now, not after the baselines ran
-    if args.out is None:
-        return evaluation.main(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
-    check_output_folder(args.out)
-    with locked_folder(args.out):
-        return evaluation.main(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
-
-
 def _diagnose(args: argparse.Namespace) -> int:
     import json
 
     from sma_gym._io import check_output_folder, locked_folder
     from sma_gym.data import MeasuredDataError, load_traces
     from sma_gym.data.measured import DIAGNOSIS_MIN_ROWS
-    from sma_gym.diagnosis.workflow import diagnose, require_max_rounds, write_outputs
+    from sma_gym.diagnosis.report import write_outputs
+    from sma_gym.diagnosis.workflow import diagnose, require_max_rounds
     from sma_gym.effects import EFFECTS
     from sma_gym.model import load_model
 
@@ -86,7 +76,8 @@ def _diagnose(args: argparse.Namespace) -> int:
 
     if args.cross_validate:
         from sma_gym._io import write_json, write_text
-        from sma_gym.diagnosis.workflow import cross_validate, cross_validation_table
+        from sma_gym.diagnosis.report import cross_validation_table
+        from sma_gym.diagnosis.workflow import cross_validate
 
         with locked_folder(out):
             cv = cross_validate(fit, nominal, effects, progress=progress, max_rounds=args.max_rounds)
@@ -99,9 +90,9 @@ def _diagnose(args: argparse.Namespace) -> int:
         result = diagnose(fit, held, nominal, effects, progress=progress, max_rounds=args.max_rounds)
         paths = write_outputs(result, out, fit, held, nominal)
     if args.json:
-        from sma_gym.diagnosis.workflow import _json_default
+        from sma_gym.diagnosis.report import json_default
 
-        print(json.dumps(result.as_dict(), default=_json_default))
+        print(json.dumps(result.as_dict(), default=json_default))
     else:
         joiner = " + " if result.verdict == "effects" else " or "
         effect = result.effect if isinstance(result.effect, str) or result.effect is None else joiner.join(result.effect)
@@ -119,42 +110,12 @@ def _synth(args: argparse.Namespace) -> int:
     return synth.main(args)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="sma-gym", description="SMA actuator simulator, environments and tools.")
-    sub = parser.add_subparsers(dest="command", required=True)
-
-    p = sub.add_parser("fidelity", help="compare the simulator with every result of the report (125 rows of REPORT_TARGETS, Table 6.1 and chapters 7-9 included)")
-    p.add_argument("--out", help="folder for the PNG plots")
-    p.add_argument("--json", action="store_true", help='print {"rows": [...], "summary": {...}} as JSON instead of a table')
-    p.add_argument("--quick", action="store_true", help="one seed, shorter sines and sweeps (about 1.5 minutes, for smoke tests)")
-    p.set_defaults(func=_fidelity)
-
-    p = sub.add_parser("bench", help="simulator speed in actuator-steps/s (1 kHz control step)")
+def _bench_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help='print {"averaged": {"1": rate, "4096": rate}, "resolved": {...}}')
     p.add_argument("--repeats", type=int, default=3, help="best of this many timings (default 3)")
-    p.set_defaults(func=_bench)
 
-    p = sub.add_parser("evaluate", help="score the report's controllers (and trained agents) on the report's experiments")
-    p.add_argument("--out", help="folder for the markdown report, the JSON results and the PNG plots")
-    p.add_argument("--policy", action="append", help="a stable-baselines3 model (.zip) written by train.py; repeatable")
-    p.add_argument("--json", action="store_true", help="print every metric as one JSON document")
-    p.add_argument(
-        "--experiments",
-        default="6.1,7,8,9,self-sensing",
-        help="comma-separated subset of 6.1, 7, 8, 9, self-sensing (default: all)",
-    )
-    p.add_argument("--seeds", type=int, default=3, help="seeds per run (sensor noise differs); default 3")
-    p.add_argument(
-        "--baselines",
-        help="comma-separated controllers to include, e.g. 'PID,VSC3 + FF' (default: all ten of Table 6.1)",
-    )
-    p.set_defaults(func=_evaluate)
 
-    p = sub.add_parser(
-        "diagnose",
-        help="find the effect the model is missing from measured traces, add it, show the gap shrink",
-        description="sma-gym diagnose FIT.csv [FIT2.csv ...] [--heldout HELD.csv ...] --out DIR",
-    )
+def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("files", nargs="+", help="measured traces to fit (CSV, see README: measured data)")
     p.add_argument("--heldout", nargs="+", help="measured traces never used for fitting")
     p.add_argument("--out", required=True, help="folder for the report, plots, JSON and corrected_model.json")
@@ -173,9 +134,9 @@ def build_parser() -> argparse.ArgumentParser:
         "writes cross_validation.md/.json",
     )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
-    p.set_defaults(func=_diagnose)
 
-    p = sub.add_parser("synth", help="write a synthetic measured trace with a hidden effect (labels in a separate file)")
+
+def _synth_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, help="CSV file to write (with <out>.json sidecar and <stem>.labels.json)")
     p.add_argument("--effect", default="none", help="none, or NAME or NAME:param=value,... (default none)")
     p.add_argument("--form", default="default", help="form of the effect (default, or an alternative such as uniform)")
@@ -190,7 +151,63 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-electrical", action="store_true", help="record position only (no R, I, V)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--overwrite", action="store_true", help="replace an existing file")
-    p.set_defaults(func=_synth)
+
+
+BUILTIN_COMMANDS = (
+    Command("bench", "simulator speed in actuator-steps/s (1 kHz control step)", _bench_arguments, _bench),
+    Command(
+        "diagnose",
+        "find the effect the model is missing from measured traces, add it, show the gap shrink",
+        _diagnose_arguments,
+        _diagnose,
+        description="sma-gym diagnose FIT.csv [FIT2.csv ...] [--heldout HELD.csv ...] --out DIR",
+    ),
+    Command("synth", "write a synthetic measured trace with a hidden effect (labels in a separate file)", _synth_arguments, _synth),
+)
+
+
+def _unavailable(name: str, source: str, error: Exception) -> Command:
+    """A command whose entry point does not load: listed, and its use names the reason."""
+
+    def run(args: argparse.Namespace) -> int:
+        raise ValueError(f"this command ({source}) could not be loaded: {type(error).__name__}: {error}")
+
+    return Command(name, f"(unavailable: {source} does not load)", lambda p: None, run)
+
+
+def plugin_commands() -> list[Command]:
+    """The commands declared in the :data:`COMMANDS_GROUP` entry-point group."""
+    found = []
+    for entry in entry_points(group=COMMANDS_GROUP):
+        try:
+            command = entry.load()
+        except Exception as err:  # noqa: BLE001 - a broken plugin must not break the other commands
+            found.append(_unavailable(entry.name, entry.value, err))
+            continue
+        if not isinstance(command, Command) or command.name != entry.name:
+            raise TypeError(f"entry point {entry.name} = {entry.value!r} in {COMMANDS_GROUP}: expected a sma_gym.cli.Command named {entry.name!r}")
+        found.append(command)
+    return found
+
+
+def all_commands() -> list[Command]:
+    """Built-in and plugin commands, by name (a name defined twice is an error)."""
+    commands: dict[str, Command] = {}
+    for command in [*BUILTIN_COMMANDS, *plugin_commands()]:
+        if command.name in commands:
+            raise TypeError(f"sma-gym command {command.name!r} is defined twice ({COMMANDS_GROUP} entry points)")
+        commands[command.name] = command
+    return [commands[name] for name in sorted(commands)]
+
+
+def build_parser(commands: Sequence[Command] | None = None) -> argparse.ArgumentParser:
+    """The ``sma-gym`` parser with ``commands`` (default: :func:`all_commands`)."""
+    parser = argparse.ArgumentParser(prog="sma-gym", description="SMA actuator simulator, environments and tools.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for command in all_commands() if commands is None else commands:
+        p = sub.add_parser(command.name, help=command.help, description=command.description)
+        command.add_arguments(p)
+        p.set_defaults(func=command.run)
     return parser
 
 
@@ -205,4 +222,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # ``python -m sma_gym.cli``: run the importable module, whose Command the plugins build
+    # (this file, run as __main__, defines a second, different Command class).
+    from sma_gym.cli import main as _main
+
+    sys.exit(_main())

@@ -13,8 +13,9 @@ the report's value, the simulated value, the spec's tolerance and a status:
 
 This module runs the experiments on the plant alone (open loop, P control in a loop of its
 own, the multiplexer's counts) and holds the row, summary and output machinery. Table 6.1
-and chapters 7-9 come from the evaluation harness; :mod:`agents.report_targets` runs both
-and assembles the table (``sma-gym fidelity`` calls it).
+and chapters 7-9 need the report's controllers, which live outside this package: the
+``sma-gym fidelity`` command (declared by the ``agents`` package) runs them and this
+module's plant experiments, and assembles the table with :func:`write_outputs`.
 
 Plant experiments (the report's standard actuator unless stated; t = 0 at rest):
 
@@ -222,13 +223,6 @@ def _status_text(row: Row) -> str:
     return row.status
 
 
-def main(out: str | None, as_json: bool, quick: bool = False) -> int:
-    """``sma-gym fidelity``: the table comes from :mod:`agents.report_targets` (it runs the harness)."""
-    from agents import report_targets
-
-    return report_targets.main(out, as_json, quick=quick)
-
-
 def write_outputs(result: FidelityResult, out: str | None, as_json: bool) -> int:
     """Draw the plots into ``out``, print the table (or JSON); 0 if no counted row fails."""
     if out:
@@ -320,7 +314,8 @@ def _supply(name: str, volts: float, **changes: Any) -> ModelConfig:
 
 
 def _stroke_m() -> float:
-    return preset("standard").driver.end_of_travel_m
+    """Usable stroke of the standard actuator (the envs scale positions by it)."""
+    return preset("standard").usable_stroke_m
 
 
 # --------------------------------------------------------------------------------------
@@ -351,6 +346,12 @@ def transformation_temperatures(data: dict[str, np.ndarray], column: int = 0) ->
 
 
 def voltage_step_rows(data: dict[str, np.ndarray], cooling: dict[str, np.ndarray]) -> list[Row]:
+    """Rows of the open-loop voltage steps (fig. 5.2, 5.3): A1, A4, A8, A21-A25, A28, 8k."""
+    return [*_voltage_step_motion_rows(data), *_voltage_step_load_rows(data, cooling)]
+
+
+def _voltage_step_motion_rows(data: dict[str, np.ndarray]) -> list[Row]:
+    """A1, A4, A8, A21, A22: how far, how fast and at what temperature the wire contracts."""
     t = data["time_s"][:, 0]
     x = data["position_m"]
     temp = data["temperature_c"]
@@ -392,6 +393,17 @@ def voltage_step_rows(data: dict[str, np.ndarray], cooling: dict[str, np.ndarray
             f"the wire moves {MOTION_MM} mm while still below A_s = {REPORT_A_S_C:g} degC, at every voltage",
         )
     )
+    return rows
+
+
+def _voltage_step_load_rows(data: dict[str, np.ndarray], cooling: dict[str, np.ndarray]) -> list[Row]:
+    """A23-A25, A28, 8k: peak temperature, stress, spring force, heating against cooling time."""
+    t = data["time_s"][:, 0]
+    x = data["position_m"]
+    temp = data["temperature_c"]
+    stroke = _stroke_m()
+    t10, t90 = transformation_temperatures(data)
+    rows = []
     peak = float(temp[:, 0].max())
     lo, hi = target("A23").numbers
     rows.append(
@@ -593,7 +605,8 @@ def resistance_loop(duration_s: float = 60.0) -> dict[str, np.ndarray]:
 
 
 def cold_resistance() -> float:
-    return float(Simulator("standard").resistance_ohm[0])
+    """Resistance of the standard wire cold and extended (at rest) [ohm]."""
+    return preset("standard").wire.cold_resistance_ohm
 
 
 def heating_from_cold(duration_s: float = 3.0) -> dict[str, np.ndarray]:

@@ -1,8 +1,6 @@
 """History features and residual agents: what training builds, evaluation rebuilds exactly."""
 
 import math
-import sys
-from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -10,12 +8,10 @@ import pytest
 
 import sma_gym  # noqa: F401
 from agents.history import DUTY_TIME_CONSTANTS_S, HistoryFeatures
-from agents.policies import AgentPolicy, ControllerPolicy
+from agents.policies import ControllerPolicy
 from agents.residual import ResidualStep
-
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-import train  # noqa: E402
+from agents.trained import AgentPolicy
+from agents.training.envs import make_vec_env
 
 KWARGS = {"control_period_s": 0.01}
 
@@ -84,7 +80,7 @@ def test_evaluation_policy_sees_exactly_what_training_saw(history, residual):
     training wrappers' features and compose actions identically, across an episode end."""
     from stable_baselines3 import SAC
 
-    venv = train.make_vec_env("SMATracking-v0", 2, KWARGS, 1, seed=5, history=history, residual=residual, max_episode_steps=120)
+    venv = make_vec_env("SMATracking-v0", 2, KWARGS, 1, seed=5, history=history, residual=residual, max_episode_steps=120)
     model = SAC("MlpPolicy", venv, seed=0, device="cpu", learning_starts=10**9)
     agent = AgentPolicy(model, "agent", "SMATracking-v0", dict(KWARGS), history=history, residual=residual)
     k = len(gym.make("sma_gym:SMATracking-v0", **KWARGS).unwrapped.feature_names)
@@ -107,21 +103,8 @@ def test_evaluation_policy_sees_exactly_what_training_saw(history, residual):
 
 
 def _residual_wrapper(venv):
-    from agents.residual import ResidualVecEnv
+    from agents.training.envs import ResidualVecEnv
 
     while not isinstance(venv, ResidualVecEnv):
         venv = venv.venv
     return venv
-
-
-def test_train_settings_come_from_the_hyperparameter_file_and_options_override():
-    run = train.settings(train.parse_args([]))
-    assert run["algo"] == "sac" and run["history"] == "ema" and run["residual"] == "VSC3 + FF"
-    run = train.settings(train.parse_args(["--residual", "none", "--history", "none", "--algo", "ppo", "--timesteps", "1000"]))
-    assert run["residual"] is None and run["history"] == "none" and run["timesteps"] == 1000 and "n_steps" in run["model_kwargs"]
-    with pytest.raises(ValueError, match="residual"):
-        train.settings(train.parse_args(["--residual", "LQR"]))
-    with pytest.raises(ValueError, match="frame-stack"):
-        train.settings(train.parse_args(["--frame-stack", "4"]))
-    run = train.settings(train.parse_args(["--frame-stack", "4", "--history", "none", "--residual", "none"]))
-    assert run["frame_stack"] == 4

@@ -186,7 +186,7 @@ def test_cli_prints_every_metric_as_json_and_writes_the_report(tmp_path, capsys)
 def test_cli_evaluates_a_saved_agent_beside_the_baselines(tmp_path, capsys):
     from stable_baselines3 import PPO
 
-    from agents.policies import save_policy
+    from agents.trained import save_policy
 
     env = gym.make("sma_gym:SMATracking-v0")
     model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")

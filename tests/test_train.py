@@ -1,4 +1,5 @@
-"""train.py end to end on a tiny budget: models, table and plots written, model reloads."""
+"""train.py end to end on a tiny budget: models, table and plots written, model reloads;
+the run configuration (:mod:`agents.training`) and the card (:class:`agents.card.PolicyCard`)."""
 
 import json
 import subprocess
@@ -7,6 +8,10 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import pytest
+
+from agents.card import CARD_SUFFIX, PolicyCard, card_path
+from agents.training import RunConfig, parse_args
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -32,7 +37,7 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
     # features, residual base) and load_policy rebuilds that to act on the raw env.
     from stable_baselines3 import SAC
 
-    from agents.policies import load_policy
+    from agents.trained import load_policy
 
     model = SAC.load(out / "best_model.zip", device="cpu")
     card = json.loads((out / "best_model.json").read_text())
@@ -70,11 +75,48 @@ def test_train_rejects_bad_options():
 
 def test_progress_lines_report_steps_rate_and_time_left():
     """Without a terminal (CI, nohup, cluster logs) train.py prints these instead of a bar."""
-    import importlib.util
+    from agents.training.learn import progress_line
 
-    spec = importlib.util.spec_from_file_location("train_script", ROOT / "train.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    line = module.progress_line(50_000, 400_000, 100.0)
+    line = progress_line(50_000, 400_000, 100.0)
     assert line == "train.py: 50000/400000 steps (12 %), 500 steps/s, about 11.7 min left"
-    assert "unknown" in module.progress_line(0, 400_000, 0.0)
+    assert "unknown" in progress_line(0, 400_000, 0.0)
+
+
+def test_train_py_is_a_thin_shell_over_agents_training():
+    text = (ROOT / "train.py").read_text()
+    assert "from agents.training import main" in text and len(text.splitlines()) <= 15
+
+
+def test_train_settings_come_from_the_hyperparameter_file_and_options_override():
+    run = RunConfig.from_args(parse_args([]))
+    assert run.algo == "sac" and run.history == "ema" and run.residual == "VSC3 + FF"
+    run = RunConfig.from_args(parse_args(["--residual", "none", "--history", "none", "--algo", "ppo", "--timesteps", "1000"]))
+    assert run.residual is None and run.history == "none" and run.timesteps == 1000 and "n_steps" in run.model_kwargs
+    with pytest.raises(ValueError, match="residual"):
+        RunConfig.from_args(parse_args(["--residual", "LQR"]))
+    with pytest.raises(ValueError, match="frame-stack"):
+        RunConfig.from_args(parse_args(["--frame-stack", "4"]))
+    run = RunConfig.from_args(parse_args(["--frame-stack", "4", "--history", "none", "--residual", "none"]))
+    assert run.frame_stack == 4
+    # Frozen, and run.json's fields in their old order.
+    with pytest.raises(AttributeError):
+        run.seed = 1
+    assert list(run.as_dict())[:3] == ["env_id", "algo", "timesteps"] and list(run.as_dict())[-1] == "model_kwargs"
+    # A lower-case label is normalised to the controller's own spelling.
+    assert RunConfig.from_args(parse_args(["--residual", "vsc3 + ff"])).residual == "VSC3 + FF"
+
+
+def test_one_card_type_writes_and_reads_one_suffix(tmp_path):
+    """The card saved in training is the card load_policy reads: same type, same file."""
+    zip_path = tmp_path / "best_model.zip"
+    zip_path.write_bytes(b"a model")
+    run = RunConfig.from_args(parse_args(["--quick"]))
+    card = run.card(run.agent_name, timesteps=100, validation_return=-3.5)
+    assert card.save(zip_path) == card_path(zip_path) == tmp_path / f"best_model{CARD_SUFFIX}"
+    loaded = PolicyCard.load(zip_path)
+    assert loaded.model_sha256 and loaded == PolicyCard.from_dict({**card.as_dict(), "model_sha256": loaded.model_sha256})
+    written = json.loads(card_path(zip_path).read_text())
+    assert list(written)[:3] == ["format", "version", "algo"] and "train_time_s" not in written
+    assert written["residual"] == "VSC3 + FF" and written["history"] == "ema" and written["validation_return"] == -3.5
+    with pytest.raises(ValueError, match="env_id"):
+        PolicyCard(algo="SAC", env_id="SMAWarp-v9")

@@ -1,0 +1,116 @@
+"""``sma-gym fidelity`` and ``sma-gym evaluate``: the subcommands that run the report's controllers.
+
+They are declared in ``pyproject.toml`` under the ``sma_gym.commands`` entry-point group,
+where :mod:`sma_gym.cli` finds them; ``sma_gym`` itself never imports ``agents``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Sequence
+
+from agents import evaluation, report_targets
+from agents.report import table_6_1_markdown, write_report
+from agents.trained import load_policy
+from sma_gym._io import check_output_folder, locked_folder
+from sma_gym.cli import Command
+
+
+# --------------------------------------------------------------------------------------
+# sma-gym fidelity
+# --------------------------------------------------------------------------------------
+def _fidelity_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--out", help="folder for the PNG plots")
+    p.add_argument("--json", action="store_true", help='print {"rows": [...], "summary": {...}} as JSON instead of a table')
+    p.add_argument("--quick", action="store_true", help="one seed, shorter sines and sweeps (about 1.5 minutes, for smoke tests)")
+
+
+def _fidelity(args: argparse.Namespace) -> int:
+    if args.out is None:
+        return report_targets.main(args.out, args.json, quick=args.quick)
+    check_output_folder(args.out)
+    with locked_folder(args.out):
+        return report_targets.main(args.out, args.json, quick=args.quick)
+
+
+FIDELITY = Command(
+    "fidelity",
+    "compare the simulator with every result of the report (125 rows of REPORT_TARGETS, Table 6.1 and chapters 7-9 included)",
+    _fidelity_arguments,
+    _fidelity,
+)
+
+
+# --------------------------------------------------------------------------------------
+# sma-gym evaluate
+# --------------------------------------------------------------------------------------
+def _evaluate_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--out", help="folder for the markdown report, the JSON results and the PNG plots")
+    p.add_argument("--policy", action="append", help="a stable-baselines3 model (.zip) written by train.py; repeatable")
+    p.add_argument("--json", action="store_true", help="print every metric as one JSON document")
+    p.add_argument(
+        "--experiments",
+        default="6.1,7,8,9,self-sensing",
+        help="comma-separated subset of 6.1, 7, 8, 9, self-sensing (default: all)",
+    )
+    p.add_argument("--seeds", type=int, default=3, help="seeds per run (sensor noise differs); default 3")
+    p.add_argument(
+        "--baselines",
+        help="comma-separated controllers to include, e.g. 'PID,VSC3 + FF' (default: all ten of Table 6.1)",
+    )
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    experiments = [e.strip() for e in args.experiments.split(",") if e.strip()]
+    baselines = [b.strip() for b in args.baselines.split(",") if b.strip()] if args.baselines else None
+    # Everything checked before the (long) evaluation starts.
+    for e in experiments:
+        if e not in evaluation.EXPERIMENTS:
+            raise ValueError(f"--experiments {e!r}: expected a comma-separated subset of {', '.join(evaluation.EXPERIMENTS)}")
+    if not experiments:
+        raise ValueError(f"--experiments {args.experiments!r}: expected at least one of {', '.join(evaluation.EXPERIMENTS)}")
+    if args.seeds < 1:
+        raise ValueError(f"--seeds {args.seeds}: expected an integer >= 1")
+    for b in baselines or []:
+        evaluation.baseline(b)
+    for policy in args.policy or []:
+        load_policy(policy)  # card, hash and zip checked now, not after the baselines ran
+    if args.out is None:
+        return evaluate(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
+    check_output_folder(args.out)
+    with locked_folder(args.out):
+        return evaluate(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
+
+
+def evaluate(
+    out: str | None,
+    policies: Sequence[str],
+    as_json: bool,
+    experiments: Sequence[str],
+    n_seeds: int,
+    baselines: Sequence[str] | None = None,
+) -> int:
+    """Score the baselines and the saved ``policies``; print the table (or JSON), write the report into ``out``."""
+    if n_seeds < 1:
+        raise ValueError(f"seeds = {n_seeds!r}: expected an integer >= 1")
+    agents = [load_policy(p) for p in policies]
+    chosen = None if baselines is None else [evaluation.baseline(b) for b in baselines]
+    results = evaluation.evaluate(agents, experiments, seeds=tuple(range(n_seeds)), baselines=chosen)
+    if out:
+        paths = write_report(results, Path(out))
+    if as_json:
+        print(results.to_json())
+    else:
+        print(table_6_1_markdown(results) if "6.1" in experiments else f"{len(results.records)} metrics")
+        if out:
+            print(f"\nreport written to {Path(out).resolve() / 'evaluation.md'} ({len(paths)} files)")
+    return 0
+
+
+EVALUATE = Command(
+    "evaluate",
+    "score the report's controllers (and trained agents) on the report's experiments",
+    _evaluate_arguments,
+    _evaluate,
+)

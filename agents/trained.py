@@ -1,0 +1,138 @@
+"""Trained agents: a stable-baselines3 model run on raw env observations as it trained.
+
+:func:`save_policy` writes a model zip and its card (:class:`agents.card.PolicyCard`);
+:func:`load_policy` reads both back into an :class:`AgentPolicy`, which rebuilds what the
+model saw in training (residual base controller, history features) from the raw
+observations the evaluation harness gives it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+import gymnasium as gym
+import numpy as np
+
+import sma_gym  # noqa: F401  (registers the ids)
+from agents.card import PolicyCard
+from agents.history import HistoryFeatures
+from agents.residual import ResidualStep
+from sma_gym._io import atomic_path
+
+
+@dataclass
+class AgentPolicy:
+    """A trained stable-baselines3 model plus what is needed to evaluate it like it trained.
+
+    ``frame_stack`` is the number of stacked observations (SB3's ``VecFrameStack``) the
+    model expects; the evaluation harness wraps its env accordingly.
+    """
+
+    model: Any
+    name: str
+    env_id: str
+    env_kwargs: dict
+    frame_stack: int = 1
+    history: str = "none"
+    """``"ema"``: the model expects :class:`agents.history.HistoryFeatures` appended; the
+    policy computes them from the observations it is given, as training did."""
+    residual: str | None = None
+    """A controller label (e.g. ``"VSC3 + FF"``): the model is a residual on top of it
+    (:mod:`agents.residual`); the policy runs that controller, as training did."""
+    residual_scale: float = 0.5
+
+    def __post_init__(self) -> None:
+        self._features: HistoryFeatures | None = None
+        self._residual: ResidualStep | None = None
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        obs = np.asarray(observation, dtype=float)
+        single = obs.ndim == 1
+        batch = obs[None, :] if single else obs
+        if episode_start is not None:
+            starts = np.asarray(episode_start, dtype=bool).reshape(-1)
+        else:  # no flags: the first call starts an episode, later calls continue it
+            starts = np.full(len(batch), self._features is None and self._residual is None)
+        if self.residual is not None:
+            if self._residual is None:
+                self._residual = self._make_residual()
+            batch = self._residual.observe(batch, starts)
+        if self.history == "ema":
+            batch = self._with_history(batch, starts)
+        action, state = self.model.predict(batch, state=state, episode_start=episode_start, deterministic=deterministic)
+        if self._residual is not None:
+            action = self._residual.action(action)
+        return (action[0] if single else action), state
+
+    def _make_residual(self) -> ResidualStep:
+        """The base controller, built on the env the model trained on (its constants)."""
+        env = gym.make("sma_gym:" + self.env_id, **self.env_kwargs)
+        try:
+            return ResidualStep(env, self.residual, self.residual_scale)
+        finally:
+            env.close()
+
+    def _with_history(self, batch: np.ndarray, starts: np.ndarray) -> np.ndarray:
+        if self._features is None or self._features.n != batch.shape[0]:
+            self._features = HistoryFeatures.for_env(batch.shape[0], self.env_id, self.env_kwargs)
+            return self._features.reset(batch)
+        out, _ = self._features.update(batch, starts)
+        return out
+
+    def reset(self) -> None:
+        self._features = None
+        self._residual = None
+
+    @classmethod
+    def from_card(cls, model: Any, card: PolicyCard, name: str | None = None) -> AgentPolicy:
+        """``model`` run as ``card`` says it trained."""
+        return cls(
+            model=model,
+            name=name or card.name,
+            env_id=card.env_id,
+            env_kwargs=dict(card.env_kwargs),
+            frame_stack=card.frame_stack,
+            history=card.history,
+            residual=card.residual,
+            residual_scale=card.residual_scale,
+        )
+
+
+def save_policy(model: Any, path: str | Path, card: PolicyCard | Mapping[str, Any]) -> Path:
+    """Save ``model`` to ``path`` (a ``.zip``) and then its card, each atomically.
+
+    The card records the SHA-256 of the zip it describes, so a card can never be read as
+    describing another run's model (:meth:`PolicyCard.load` checks it). The zip is written
+    first: an interrupt between the two leaves a zip whose card is missing or stale, which
+    the reader refuses by name, never a card pointing at a model that does not exist.
+    ``card`` may also be given as its JSON fields (checked the same way).
+    """
+    if not isinstance(card, PolicyCard):
+        card = PolicyCard.from_dict(card)
+    target = Path(path)
+    with atomic_path(target) as tmp:
+        model.save(tmp)
+    card.save(target)
+    return target
+
+
+def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
+    """Open a model saved by ``train.py`` (``<name>.zip`` with its card ``<name>.json``).
+
+    The card is required and must describe this very zip (see :meth:`PolicyCard.load`).
+    """
+    p = Path(path)
+    if p.suffix != ".zip":
+        p = p.with_suffix(".zip")
+    if not p.is_file():
+        raise ValueError(f"policy = {str(path)!r}: no such file (expected a stable-baselines3 .zip written by train.py)")
+    card = PolicyCard.load(p)
+    import stable_baselines3  # after the card's checks: a bad card is refused without loading torch
+
+    try:
+        model = getattr(stable_baselines3, card.algo).load(str(p), device="cpu")
+    except Exception as err:  # noqa: BLE001 - SB3 raises many types for a corrupt zip
+        raise ValueError(f"policy = {str(path)!r}: not a {card.algo} model ({err})") from None
+    return AgentPolicy.from_card(model, card, name or card.name or p.stem)

@@ -1,0 +1,147 @@
+"""The trained agent beside the report's controllers, and the run's goals.
+
+:func:`compare` scores the run's best model with the evaluation harness on references it
+never trained on (the report's 8 mm step and 0.1 Hz sine) beside the baselines chosen for
+its env (:data:`PLANS`), writes the harness's report, and returns ``results.md`` and the
+goals checked (:data:`GOALS`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from agents.controllers import ALL_SPECS, PID, VSC3, with_feedforward
+from agents.evaluation import CHAPTER_7_CONDITIONS, PolicyEntry, Results, agent_entry, baseline, run_chapter_7, run_table_6_1
+from agents.report import write_report
+from agents.trained import load_policy
+from agents.training.config import RunConfig
+
+TRACKING, SELF_SENSING, ROBUST = "SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0"
+
+
+@dataclass(frozen=True)
+class Goal:
+    """One goal of a run: the agent's worst case over seeds against the baselines'.
+
+    Met when ``agent < factor * baseline`` (``strict``) or ``agent <= factor * baseline +
+    slack``; the baseline is the best of the baselines with a position sensor, or the one
+    named by ``against``.
+    """
+
+    name: str
+    reference: str
+    """``"step"`` or ``"sine"``."""
+    metric: str = "rms_error_m"
+    against: str | None = None
+    """A baseline's label, or None for the best baseline."""
+    factor: float = 1.0
+    strict: bool = True
+    slack_m: float = 0.0
+    over_conditions: bool = False
+    """Compare the worst case over every condition run (robustness) instead of the first."""
+    baseline_key: str = "best_baseline_mm"
+    """Name of the baseline's figure in ``goals.json``."""
+
+    def check(self, value: Callable[[str, str], float], agent: str, baselines: Sequence[str], conditions: Sequence[str]) -> dict[str, Any]:
+        """``{"agent_mm", <baseline_key>, "met"}``; ``value(policy, condition)`` reads the metric."""
+
+        def figure(policy: str) -> float:
+            chosen = conditions if self.over_conditions else conditions[:1]
+            return max(value(policy, c) for c in chosen)
+
+        a = figure(agent)
+        b = figure(self.against) if self.against else min(figure(p) for p in baselines)
+        met = a < self.factor * b if self.strict else a <= self.factor * b + self.slack_m
+        return {"agent_mm": a * 1e3, self.baseline_key: b * 1e3, "met": met}
+
+
+GOALS: dict[str, tuple[Goal, ...]] = {
+    TRACKING: (
+        Goal("RMS step below every baseline", "step"),
+        Goal("RMS sine below every baseline", "sine"),
+        Goal("overshoot no larger than VSC3 + FF's", "step", "overshoot_m", against="VSC3 + FF", strict=False, slack_m=1e-9, baseline_key="vsc3_ff_mm"),
+    ),
+    SELF_SENSING: tuple(
+        Goal(f"RMS {ref} within 2x of the best baseline with a position sensor", ref, factor=2.0, strict=False) for ref in ("step", "sine")
+    ),
+    ROBUST: tuple(
+        Goal(f"worst-case RMS {ref} over chapter-7 conditions < best baseline's", ref, over_conditions=True) for ref in ("step", "sine")
+    ),
+}
+"""What each env's agent must achieve against the baselines (``results.md``, ``goals.json``)."""
+
+
+def _baselines(env_id: str, quick: bool) -> list[PolicyEntry]:
+    """The baselines a run of ``env_id`` is compared with."""
+    best = [baseline(PID), baseline(with_feedforward(VSC3))]
+    if env_id == SELF_SENSING:
+        return best + [baseline(PID, True), baseline(with_feedforward(VSC3), True)]
+    if env_id == ROBUST:
+        return best + [baseline(VSC3), baseline(with_feedforward(PID))]
+    # "Lower RMS than every baseline": all ten configurations of Table 6.1.
+    return best if quick else [baseline(s) for s in ALL_SPECS]
+
+
+def compare(run: RunConfig, out: Path) -> tuple[str, dict[str, Any]]:
+    """Score ``out/best_model.zip`` beside the baselines; ``(results.md text, goals)``."""
+    agent = load_policy(out / "best_model.zip")
+    entries = _baselines(run.env_id, run.quick) + [agent_entry(agent)]
+    seeds = (0,) if run.quick else (0, 1, 2)
+    results = Results()
+    if run.env_id == SELF_SENSING:
+        run_table_6_1(entries, results, seeds, condition="self-sensing", model="forced-convection")
+        conditions = [("self-sensing", "forced-convection")]
+    elif run.env_id == ROBUST:
+        conditions = list(CHAPTER_7_CONDITIONS) if not run.quick else [CHAPTER_7_CONDITIONS[0]]
+        run_chapter_7(entries, results, seeds, conditions)
+    else:
+        run_table_6_1(entries, results, seeds)
+        conditions = [("standard", "standard")]
+    write_report(results, out / "evaluation")
+    return summarise(run, results, agent.name, conditions)
+
+
+def summarise(run: RunConfig, results: Results, agent: str, conditions: list[tuple[str, str]]) -> tuple[str, dict[str, Any]]:
+    """``results.md``'s table of the agent and baselines, and its goals (:data:`GOALS`) checked."""
+    experiment = "7" if run.env_id == ROBUST else "6.1"
+    policies = results.distinct(experiment, "policy")
+
+    def get(policy: str, condition: str, ref: str, metric: str, worst: bool = True) -> float:
+        try:
+            return results.value(experiment, policy, condition, ref, metric, worst=worst)
+        except KeyError:
+            return math.nan
+
+    lines = [
+        f"# {run.algo.upper()} on {run.env_id} beside the report's controllers",
+        "",
+        "References the agent never trained on: the report's 8 mm step and 0.1 Hz, 3 mm sine.",
+        "Worst case over seeds; lengths in mm.",
+        "",
+        "| policy | condition | RMS step | RMS sine | overshoot | steady-state error | energy sine [J] |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for condition, _ in conditions:
+        for p in policies:
+            rms_step = get(p, condition, "step", "rms_error_m")
+            if math.isnan(rms_step):
+                continue
+            sse = get(p, condition, "step", "steady_state_error_m")
+            lines.append(
+                f"| {p} | {condition} | {rms_step * 1e3:.3f} | {get(p, condition, 'sine', 'rms_error_m') * 1e3:.3f} | "
+                f"{get(p, condition, 'step', 'overshoot_m') * 1e3:.3f} | {'osc.' if math.isnan(sse) else f'{sse * 1e3:+.3f}'} | "
+                f"{get(p, condition, 'sine', 'energy_j', worst=False):.2f} |"
+            )
+    with_sensor = [p for p in policies if p != agent and "self-sensing" not in p]
+    labels = [c for c, _ in conditions]
+    goals = {
+        g.name: g.check(lambda p, c, g=g: get(p, c, g.reference, g.metric), agent, with_sensor, labels) for g in GOALS.get(run.env_id, ())
+    }
+    lines += ["", "## Goals", ""]
+    for name, g in goals.items():
+        figures = ", ".join(f"{k} = {v:.3f}" for k, v in g.items() if k != "met")
+        lines.append(f"- {'met' if g['met'] else 'NOT met'}: {name} ({figures})")
+    return "\n".join(lines) + "\n", goals

@@ -1,0 +1,223 @@
+"""The run configuration of ``train.py``: hyperparameter file, command line, checks.
+
+Hyperparameters live in ``hyperparams/<env id>.toml`` (one table per algorithm, RL Zoo
+style); command-line options override them. :meth:`RunConfig.from_args` merges the two and
+checks every value before anything is created, so a bad option exits 2 with its name.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tomllib
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from agents.card import CARD_SUFFIX, HISTORIES, PolicyCard
+from agents.controllers import ALL_SPECS, spec_by_label
+
+ROOT = Path(__file__).resolve().parents[2]
+"""The repository: ``train.py``, ``hyperparams/`` and the default ``runs/`` live here."""
+HYPERPARAMS = ROOT / "hyperparams"
+ALGOS = ("sac", "ppo")
+QUICK_TIMESTEPS = 1_500
+DEFAULT_RESIDUAL_SCALE = 0.5
+DEFAULT_EVAL_FREQ = 20_000
+_RUN_KEYS = ("n_timesteps", "n_envs", "frame_stack", "history", "residual", "residual_scale", "eval_freq", "env_kwargs")
+"""Keys of a hyperparameter table that configure the run; the rest go to the algorithm."""
+
+DESCRIPTION = "Train a stable-baselines3 agent on an sma-gym env and compare it with the report's controllers."
+
+
+def load_hyperparams(env_id: str) -> dict[str, Any]:
+    """The parsed ``hyperparams/<env_id>.toml``; ``ValueError`` naming the known ids if absent."""
+    path = HYPERPARAMS / f"{env_id}.toml"
+    if not path.exists():
+        known = sorted(p.stem for p in HYPERPARAMS.glob("*.toml"))
+        raise ValueError(f"--env {env_id!r}: no hyperparameter file {path}; expected one of {known}")
+    with path.open("rb") as handle:
+        return tomllib.load(handle)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """``train.py``'s command line."""
+    p = argparse.ArgumentParser(prog="train.py", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--env", default="SMATracking-v0", help="env id (default SMATracking-v0)")
+    p.add_argument("--algo", choices=ALGOS, help="algorithm (default: the hyperparameter file's default_algo)")
+    p.add_argument("--timesteps", type=int, help="total environment steps (default: from the hyperparameter file)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--n-envs", type=int, help="parallel envs in the native vector env (default: from the file)")
+    p.add_argument("--frame-stack", type=int, help="observations stacked as the agent's history (default: from the file)")
+    p.add_argument("--history", choices=HISTORIES, help="history features (agents/history.py; default: from the file)")
+    p.add_argument("--residual", help="base controller the agent corrects, e.g. 'VSC3 + FF', or 'none' (default: from the file)")
+    p.add_argument("--out", help="run folder (default runs/<env>-<algo>-<time>); must be new or empty unless --overwrite")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="allow a non-empty --out: the previous run's outputs there are deleted first (default: refuse a non-empty --out)",
+    )
+    p.add_argument("--device", default="cpu", help="torch device, e.g. cpu, cuda, cuda:1, mps (default cpu)")
+    p.add_argument("--quick", action="store_true", help=f"tiny budget ({QUICK_TIMESTEPS} steps) and a short evaluation, for smoke tests")
+    p.add_argument(
+        "--threads",
+        type=int,
+        default=1,
+        help="torch intra-op threads (default 1: SAC's small networks gain nothing from more, and torch's default "
+        "pool of every core thrashes when anything else runs on the machine)",
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar or progress lines")
+    return p
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    return build_parser().parse_args(argv)
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """Everything a training run is made of; written to ``run.json`` in this field order."""
+
+    env_id: str
+    algo: str
+    """Lower-case algorithm, one of :data:`ALGOS`."""
+    timesteps: int
+    n_envs: int
+    frame_stack: int
+    history: str
+    """``"none"`` or ``"ema"`` (:mod:`agents.history`)."""
+    residual: str | None
+    """Label of the controller the agent corrects (:mod:`agents.residual`), or None."""
+    residual_scale: float
+    """Largest correction, as a fraction of full duty."""
+    eval_freq: int
+    """Environment steps between validation evaluations (over all envs)."""
+    env_kwargs: dict[str, Any]
+    seed: int
+    device: str
+    threads: int
+    """torch intra-op threads."""
+    quick: bool
+    model_kwargs: dict[str, Any] = field(default_factory=dict)
+    """Keyword arguments of the stable-baselines3 algorithm (``policy`` included if set)."""
+
+    @classmethod
+    def from_args(cls, args: argparse.Namespace) -> RunConfig:
+        """The hyperparameter file's table for the algorithm, overridden by the options, checked."""
+        hp = load_hyperparams(args.env)
+        algo = args.algo or hp.get("default_algo", "sac")
+        if algo not in hp:
+            raise ValueError(f"--algo {algo!r}: hyperparams/{args.env}.toml has no [{algo}] table")
+        table = dict(hp[algo])
+        model_kwargs = {k: v for k, v in table.items() if k not in _RUN_KEYS}
+        timesteps = int(table["n_timesteps"] if args.timesteps is None else args.timesteps)
+        eval_freq = int(table.get("eval_freq", DEFAULT_EVAL_FREQ))
+        if args.quick:
+            timesteps, eval_freq = QUICK_TIMESTEPS, 500
+            model_kwargs.update({"learning_starts": 200, "buffer_size": 10_000} if algo == "sac" else {"n_steps": 64, "batch_size": 64})
+        residual = (None if args.residual == "none" else args.residual) if args.residual else table.get("residual")
+        run = cls(
+            env_id=args.env,
+            algo=algo,
+            timesteps=timesteps,
+            n_envs=int(table.get("n_envs", 1) if args.n_envs is None else args.n_envs),
+            frame_stack=int(table.get("frame_stack", 1) if args.frame_stack is None else args.frame_stack),
+            history=args.history or table.get("history", "none"),
+            residual=residual,
+            residual_scale=float(table.get("residual_scale", DEFAULT_RESIDUAL_SCALE)),
+            eval_freq=eval_freq,
+            env_kwargs=dict(table.get("env_kwargs", {})),
+            seed=args.seed,
+            device=args.device,
+            threads=args.threads,
+            quick=args.quick,
+            model_kwargs=model_kwargs,
+        )
+        return run.checked()
+
+    def checked(self) -> RunConfig:
+        """This configuration with the device and residual label checked (and the label
+        normalised); ``ValueError`` naming the option otherwise."""
+        if self.seed < 0:
+            raise ValueError(f"--seed {self.seed}: expected an integer >= 0 (numpy and torch seeds are unsigned)")
+        check_device(self.device)
+        for name in ("timesteps", "n_envs", "frame_stack", "threads"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"--{name.replace('_', '-')} = {getattr(self, name)}: expected an integer >= 1")
+        if self.frame_stack > 1 and (self.history != "none" or self.residual is not None):
+            # The evaluation harness stacks raw env observations; stacking on top of history
+            # features or a residual base would be seen differently in training and evaluation.
+            raise ValueError(f"--frame-stack {self.frame_stack} with history or residual: expected --frame-stack 1, or --history none --residual none")
+        if self.history not in HISTORIES:
+            raise ValueError(f"history = {self.history!r}: expected 'none' or 'ema'")
+        residual = self.residual
+        if residual is not None:
+            try:
+                residual = spec_by_label(residual).label
+            except ValueError as err:
+                raise ValueError(f"--residual {residual!r}: expected 'none' or one of {[c.label for c in ALL_SPECS]}") from err
+        if not 0.0 < self.residual_scale <= 1.0:
+            raise ValueError(f"residual_scale = {self.residual_scale}: expected a fraction of full duty in (0, 1]")
+        return self if residual == self.residual else replace(self, residual=residual)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The fields as ``run.json`` records them."""
+        return asdict(self)
+
+    def card(self, name: str, **progress: Any) -> PolicyCard:
+        """The card of a model of this run (``progress``: timesteps, train_time_s, validation_return)."""
+        return PolicyCard(
+            algo=self.algo.upper(),
+            name=name,
+            env_id=self.env_id,
+            env_kwargs=self.env_kwargs,
+            frame_stack=self.frame_stack,
+            history=self.history,
+            residual=self.residual,
+            residual_scale=self.residual_scale,
+            seed=self.seed,
+            **progress,
+        )
+
+    @property
+    def agent_name(self) -> str:
+        """The name of the run's best model in tables (``"SAC agent"``)."""
+        return f"{self.algo.upper()} agent"
+
+
+def check_device(device: str) -> str:
+    """``device`` if torch can train on it here, else a ``ValueError`` naming it."""
+    import torch
+
+    try:
+        parsed = torch.device(device)
+    except (RuntimeError, TypeError) as err:
+        raise ValueError(f"--device {device!r}: not a torch device ({err}); expected e.g. cpu, cuda, cuda:0, mps") from None
+    available = {
+        "cpu": lambda: True,
+        "cuda": lambda: torch.cuda.is_available() and (parsed.index is None or parsed.index < torch.cuda.device_count()),
+        "mps": lambda: bool(getattr(torch.backends, "mps", None)) and torch.backends.mps.is_available(),
+    }
+    if parsed.type not in available:
+        raise ValueError(f"--device {device!r}: expected cpu, cuda[:N] or mps")
+    if not available[parsed.type]():
+        raise ValueError(f"--device {device!r}: not available on this machine (use --device cpu)")
+    return device
+
+
+RUN_OUTPUTS = (
+    "run.json", "results.md", "goals.json", "best_model.zip", f"best_model{CARD_SUFFIX}", "final_model.zip",
+    f"final_model{CARD_SUFFIX}", "checkpoints", "evaluation", "validation", "tb",
+)
+"""What a run writes into its folder: what ``--overwrite`` deletes first, and nothing else."""
+
+
+def prepare_out(out: Path) -> None:
+    """Delete a previous run's outputs from ``out`` (``--overwrite``), so none is mistaken for this run's."""
+    import shutil
+
+    for name in RUN_OUTPUTS:
+        path = out / name
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        elif path.exists() or path.is_symlink():
+            path.unlink()
