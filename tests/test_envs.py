@@ -112,7 +112,7 @@ def test_self_sensing_sees_no_position_and_can_always_read_resistance():
         assert obs[1] == float(not cut)  # resistance_valid feature
     assert cut_steps < 600
     # The reward still uses the true position.
-    stroke = preset("standard").driver.end_of_travel_m
+    stroke = preset("standard").usable_stroke_m
     assert reward == pytest.approx(-abs(info["position_m"] - info["reference_m"]) / stroke)
 
 
@@ -120,7 +120,7 @@ def test_reward_follows_the_documented_formula():
     env = make("SMATracking-v0", energy_weight=0.3)
     env.reset(seed=0, options={"reference": "report-step"})
     p = preset("standard")
-    stroke = p.driver.end_of_travel_m
+    stroke = p.usable_stroke_m
     p_full = p.driver.supply_voltage_v**2 / p.wire.cold_resistance_ohm
     for a in (1.0, 0.5, -1.0):
         _, reward, _, _, info = env.step(np.array([a], dtype=np.float32))
@@ -134,7 +134,7 @@ def test_a_p_controller_reaches_the_step_reference_within_ten_seconds():
     env = make("SMATracking-v0")
     obs, info = env.reset(seed=0, options={"reference": "report-step"})
     u = env.unwrapped
-    stroke = preset("standard").driver.end_of_travel_m
+    stroke = preset("standard").usable_stroke_m
     truncated = terminated = False
     steps = 0
     while not (terminated or truncated):

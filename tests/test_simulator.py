@@ -480,3 +480,24 @@ def test_every_declared_effect_form_has_a_meaning_in_the_physics():
             assert set(effect.forms) == set(tables[name]), name
         elif name != "transformation_spread":  # its form is passed by name to hysteron_nodes
             assert effect.forms == ("default",), f"{name}: forms {effect.forms} need a code table"
+
+
+def test_named_views_read_the_state_by_name():
+    """Code outside the simulator reads quantities by name, never by layout index."""
+    sim = Simulator("standard", n=3)
+    sim.step(np.array([1.0, 0.5, 0.0]))
+    values = sim.read(("position_m", "temperature_c", "duty"))
+    assert np.array_equal(values["position_m"], sim.position_m)
+    assert np.array_equal(values["duty"], sim.duty_applied)
+    values["temperature_c"][:] = 0.0  # copies: the state is untouched
+    assert np.all(sim.temperature_c > 0.0)
+    one = sim.read_actuator(1, ("position_m", "time_s"))
+    assert one == {"position_m": float(sim.position_m[1]), "time_s": float(sim.time_s[1])}
+    assert type(one["position_m"]) is float
+    assert sim.read_actuator(2, ("duty",)) == {"duty": 0.0}
+    p = preset("standard")
+    assert np.all(sim.usable_stroke_m == p.usable_stroke_m)
+    assert np.all(sim.cold_resistance_ohm == p.wire.cold_resistance_ohm)
+    assert not sim.end_of_travel_cut.any()
+    with pytest.raises(ValueError, match="no_such_quantity"):
+        sim.read(("no_such_quantity",))
