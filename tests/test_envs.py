@@ -426,3 +426,22 @@ def test_scales_are_the_parameters_definitions():
     assert no_cut.actuator.usable_stroke_m == no_cut.actuator.wire.max_stroke_m
     venv = gym.make_vec("sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="vector_entry_point", model=no_cut)
     assert venv.unwrapped.position_scale_m.tolist() == [no_cut.actuator.wire.max_stroke_m] * 2
+
+
+def test_the_compiled_features_follow_their_documented_definitions_and_order():
+    env = make("SMATracking-v0")
+    u = env.unwrapped
+    env.reset(seed=3)
+    for a in (1.0,) * 30 + (0.2,) * 5:
+        obs, _, _, _, info = env.step(np.array([a], dtype=np.float32))
+    f = dict(zip(u.feature_names, obs.tolist()))
+    stroke, r_cold = u.position_scale_m, u.resistance_scale_ohm
+    assert f["position"] == pytest.approx(info["position_measured_m"] / stroke, abs=1e-6)
+    assert f["reference"] == pytest.approx(info["reference_m"] / stroke, abs=1e-6)
+    assert f["error"] == pytest.approx((info["reference_m"] - info["position_measured_m"]) / stroke, abs=1e-6)
+    assert f["last_duty"] == pytest.approx(info["duty"], abs=1e-6)
+    assert f["resistance_valid"] == float(info["resistance_valid"])
+    r = float(u.sim.resistance_measured_ohm[0])
+    assert f["resistance"] == pytest.approx(np.clip(10.0 * (r / r_cold - 1.0), -3, 3), abs=1e-5)
+    ref = u.task.references[0]
+    assert f["preview_1s"] == pytest.approx(np.clip(ref(info["time_s"] + 1.0)[0] / stroke, -0.5, 1.5), abs=1e-6)

@@ -84,31 +84,10 @@ OBS_POSITION = 0
 OBS_SELF_SENSING = 1
 """Observation set without it: resistance, current and voltage readings (self-sensing env)."""
 
+_REFERENCE_FEATURES = ("reference", "reference_rate", "preview_0.2s", "preview_0.5s", "preview_1s", "last_duty")
 FEATURES = {
-    OBS_POSITION: (
-        "position",
-        "resistance",
-        "resistance_valid",
-        "reference",
-        "reference_rate",
-        "preview_0.2s",
-        "preview_0.5s",
-        "preview_1s",
-        "last_duty",
-        "error",
-    ),
-    OBS_SELF_SENSING: (
-        "resistance",
-        "resistance_valid",
-        "current",
-        "voltage",
-        "reference",
-        "reference_rate",
-        "preview_0.2s",
-        "preview_0.5s",
-        "preview_1s",
-        "last_duty",
-    ),
+    OBS_POSITION: ("position", "resistance", "resistance_valid", *_REFERENCE_FEATURES, "error"),
+    OBS_SELF_SENSING: ("resistance", "resistance_valid", "current", "voltage", *_REFERENCE_FEATURES),
 }
 """Feature names of each observation set, in observation order."""
 
