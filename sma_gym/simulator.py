@@ -450,18 +450,22 @@ class Simulator:
 
     @property
     def velocity_m_s(self) -> np.ndarray:
+        """Contraction velocity x' [m/s]."""
         return self.state[:, L.S_V]
 
     @property
     def temperature_c(self) -> np.ndarray:
+        """Wire temperature [degC]."""
         return self.state[:, L.S_T]
 
     @property
     def stress_pa(self) -> np.ndarray:
+        """Wire stress [Pa]."""
         return self.state[:, L.S_SIGMA]
 
     @property
     def martensite_fraction(self) -> np.ndarray:
+        """Martensite fraction xi, mean over the hysterons [-] (1 = cold, extended)."""
         return self.state[:, L.S_XI]
 
     @property
@@ -477,10 +481,12 @@ class Simulator:
 
     @property
     def current_measured_a(self) -> np.ndarray:
+        """Last current reading (on-time) [A]; NaN where none was possible."""
         return self.state[:, L.S_I_MEAS]
 
     @property
     def voltage_measured_v(self) -> np.ndarray:
+        """Last wire-voltage reading (on-time) [V]; NaN where none was possible."""
         return self.state[:, L.S_V_MEAS]
 
     @property
@@ -495,6 +501,7 @@ class Simulator:
 
     @property
     def electrical_energy_j(self) -> np.ndarray:
+        """Electrical energy into the wire since reset [J]."""
         return self.state[:, L.S_E_ELECTRIC]
 
     @property
@@ -504,6 +511,7 @@ class Simulator:
 
     @property
     def time_s(self) -> np.ndarray:
+        """Simulated time since reset [s]."""
         return self.state[:, L.S_TIME]
 
     @property
