@@ -325,6 +325,33 @@ def test_same_seed_same_result_bit_for_bit_with_noise():
     assert np.std(a["position_measured_m"] - clean) == pytest.approx(2e-5, rel=0.1)
 
 
+def test_warm_surroundings_slow_the_cooling_after_a_long_heating_and_relax_to_the_ambient():
+    """The surroundings take up convected heat (their temperature rises while the wire is hot),
+    so the wire cools more slowly after a long heating than with the room as its sink, more
+    after a long heating than after a short one, and the surroundings relax back to the
+    ambient. Off, they stay exactly at the ambient."""
+    base = ModelConfig(preset("standard"))
+    warm = base.with_effect("warm_surroundings", {"gain_k_j": 0.3, "time_constant_s": 20.0})
+    long_heat = np.r_[np.full(20000, 0.2), np.zeros(40000)]
+    short_heat = np.r_[np.full(1500, 0.2), np.zeros(15000)]
+    rec = ("temperature_c", "surroundings_temperature_c", "position_m")
+    a = Simulator(base).run(long_heat, record=rec)
+    b = Simulator(warm).run(long_heat, record=rec)
+    ambient = base.actuator.convection.ambient_temperature_c
+    assert np.all(a["surroundings_temperature_c"] == ambient)
+    assert b["surroundings_temperature_c"][19999, 0] > ambient + 5.0
+    # Five seconds after switch-off the warm-surroundings wire is hotter, and more martensite
+    # is still missing (less extension back).
+    k = 20000 + 5000
+    assert b["temperature_c"][k, 0] > a["temperature_c"][k, 0] + 2.0
+    # The surroundings relax: 40 s (2 tau) later they have lost over half of their rise (the
+    # wire keeps feeding them while it cools, so less than exp(-2)).
+    rise_end = b["surroundings_temperature_c"][-1, 0] - ambient
+    assert 0.0 < rise_end < 0.5 * (b["surroundings_temperature_c"][19999, 0] - ambient)
+    short = Simulator(warm).run(short_heat, record=rec)
+    assert short["surroundings_temperature_c"].max() < b["surroundings_temperature_c"].max()
+
+
 def test_every_effect_at_its_off_value_changes_nothing_bit_for_bit():
     base = ModelConfig(preset("standard"))
     off = base

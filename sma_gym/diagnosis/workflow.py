@@ -41,10 +41,9 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -503,41 +502,3 @@ def cross_validate(
             }
         )
     return {"folds": folds}
-
-
-def cross_validation_table(cv: dict[str, Any]) -> str:
-    """The leave-one-run-out table as markdown."""
-    lines = [
-        "| predicted run | fitted on | verdict | effects | position RMS, nominal | corrected |",
-        "|---|---|---|---|---|---|",
-    ]
-    for f in cv["folds"]:
-        lines.append(
-            f"| {f['held_out']} | {', '.join(f['fitted'])} | {f['verdict']} | {', '.join(f['effects_found']) or '-'} | "
-            f"{f['position_rms_nominal_m'] * 1e3:.3f} mm | {f['position_rms_corrected_m'] * 1e3:.3f} mm |"
-        )
-    return "\n".join(lines) + "\n"
-
-
-def write_outputs(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrace], heldout_traces: Sequence[MeasuredTrace], nominal: ModelConfig) -> dict[str, Path]:
-    """Corrected model file, markdown report, JSON and plots into ``out``.
-
-    Each file is written atomically, and the corrected model last: an interrupted run
-    never leaves a corrected model without the report and JSON that justify it.
-    """
-    from sma_gym._io import write_json
-    from sma_gym.diagnosis.report import write_report
-
-    out.mkdir(parents=True, exist_ok=True)
-    report = write_report(result, out, fit_traces, heldout_traces, nominal)
-    write_json(out / "diagnosis.json", result.as_dict(), default=_json_default)
-    model_path = result.corrected_model.save(out / "corrected_model.json")
-    return {"model": model_path, "json": out / "diagnosis.json", "report": report}
-
-
-def _json_default(value: Any) -> Any:
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    if isinstance(value, np.bool_):
-        return bool(value)
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
