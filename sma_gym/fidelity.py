@@ -638,61 +638,14 @@ def resistance_fits(loop: dict[str, np.ndarray], column: int) -> dict[str, Any]:
 
 
 def resistance_rows(loop: dict[str, np.ndarray], first_rise: dict[str, np.ndarray]) -> list[Row]:
+    """Rows of the resistance (§4.2, figs. 4.4-4.9): A3, A14-A20."""
     fits = [resistance_fits(loop, j) for j in range(len(RESISTANCE_COLUMNS))]
-    main_fit = fits[0]
-    ph, pc = main_fit["heating"], main_fit["cooling"]
     rows = [numeric_row("A3", cold_resistance(), "ohm", "resistance of the cold wire at rest (extended)")]
-    if ph is None:
+    if fits[0]["heating"] is None:
         nan_rows = ("A14", "A15", "A16", "A17", "A18", "A20")
         rows += [make_row(i, "no usable loop", False, "the 10 V loop did not move through 1-6.5 mm") for i in nan_rows]
     else:
-        rows.append(numeric_row("A14", float(np.polyval(ph, 7e-3)), "ohm", "heating fit of the 10 V loop at 7 mm"))
-        rows.append(make_row("A15", f"R^2 = {fmt(main_fit['r2'], 5)}", main_fit["r2"] >= 0.98, "straight line through the 10 V heating samples, 1-6.5 mm", "R^2 >= 0.98"))
-        xr = first_rise["position_m"][:, 0]
-        rr = first_rise["resistance_measured_ohm"][:, 0]
-        low = (xr < 1e-3) & np.isfinite(rr)
-        departure = ratio(float(np.max(np.abs(rr[low] - np.polyval(ph, xr[low])))), main_fit["residual_max"]) if low.any() else math.nan
-        rows.append(
-            make_row(
-                "A16",
-                f"departure from the heating line below / above 1 mm: {fmt(departure)}x",
-                departure >= 3.0,
-                "first rise from cold (duty 0.8, fan) against the 10 V heating fit",
-                ">= 3x",
-            )
-        )
-        slope_ratio = ratio(float(pc[0]), float(ph[0]))
-        rows.append(make_row("A17", f"slope cooling / heating = {fmt(slope_ratio, 4)}", abs(slope_ratio - 1.0) >= 0.03, "fits of the 10 V loop", "differ by >= 3 % (>10x the fits' standard error)"))
-        grid = np.linspace(*FIT_BAND_M, 12)
-        spreads = []
-        for branch in ("heating", "cooling"):
-            lines = [f[branch] for f in fits[:3]]
-            if any(p is None for p in lines):
-                spreads.append(math.inf)
-                continue
-            values = np.array([np.polyval(p, grid) for p in lines])
-            spreads.append(float(np.max(np.ptp(values, axis=0))))
-        rows.append(
-            make_row(
-                "A18",
-                f"largest gap between the 5 / 7.5 / 10 V lines: heating {fmt(spreads[0])} ohm, cooling {fmt(spreads[1])} ohm",
-                max(spreads) <= 0.02,
-                "the same loop at 5, 7.5 and 10 V",
-                "heating lines within 0.02 ohm of each other over 1-6.5 mm, cooling lines too",
-            )
-        )
-        r_heat = np.polyval(ph, grid[(grid >= 2e-3) & (grid <= 6e-3)])
-        x_cool = (r_heat - pc[1]) / pc[0]
-        gap_mm = float(np.max(np.abs(x_cool - grid[(grid >= 2e-3) & (grid <= 6e-3)]))) * 1e3
-        rows.append(
-            make_row(
-                "A20",
-                f"heating and cooling lines {fmt(gap_mm)} mm apart at equal R",
-                gap_mm >= 0.1,
-                "10 V loop, 2-6 mm: the position error of reading one line on the other branch",
-                ">= 0.1 mm",
-            )
-        )
+        rows += _resistance_line_rows(fits, first_rise)
     sel = loop["t"] >= RESISTANCE_SETTLE_S
     r_sine = loop["r_meas"][sel, 3]
     r_sine = r_sine[np.isfinite(r_sine)]
@@ -704,6 +657,61 @@ def resistance_rows(loop: dict[str, np.ndarray], first_rise: dict[str, np.ndarra
             f"{fmt(float(r_sine.min()) if r_sine.size else math.nan)}-{fmt(float(r_sine.max()) if r_sine.size else math.nan)} ohm (span {fmt(span)})",
             within_factor(span, hi - lo, 1.5),
             "0 -> 8 mm sine of fig. 4.4 (P control, fan, 10 V); the span of R within a factor 1.5 of the figure's",
+        )
+    )
+    return rows
+
+
+def _resistance_line_rows(fits: list[dict[str, Any]], first_rise: dict[str, np.ndarray]) -> list[Row]:
+    """A14-A18, A20: the straight lines R(x) fitted to the loops while heating and cooling."""
+    main_fit = fits[0]
+    ph, pc = main_fit["heating"], main_fit["cooling"]
+    rows = []
+    rows.append(numeric_row("A14", float(np.polyval(ph, 7e-3)), "ohm", "heating fit of the 10 V loop at 7 mm"))
+    rows.append(make_row("A15", f"R^2 = {fmt(main_fit['r2'], 5)}", main_fit["r2"] >= 0.98, "straight line through the 10 V heating samples, 1-6.5 mm", "R^2 >= 0.98"))
+    xr = first_rise["position_m"][:, 0]
+    rr = first_rise["resistance_measured_ohm"][:, 0]
+    low = (xr < 1e-3) & np.isfinite(rr)
+    departure = ratio(float(np.max(np.abs(rr[low] - np.polyval(ph, xr[low])))), main_fit["residual_max"]) if low.any() else math.nan
+    rows.append(
+        make_row(
+            "A16",
+            f"departure from the heating line below / above 1 mm: {fmt(departure)}x",
+            departure >= 3.0,
+            "first rise from cold (duty 0.8, fan) against the 10 V heating fit",
+            ">= 3x",
+        )
+    )
+    slope_ratio = ratio(float(pc[0]), float(ph[0]))
+    rows.append(make_row("A17", f"slope cooling / heating = {fmt(slope_ratio, 4)}", abs(slope_ratio - 1.0) >= 0.03, "fits of the 10 V loop", "differ by >= 3 % (>10x the fits' standard error)"))
+    grid = np.linspace(*FIT_BAND_M, 12)
+    spreads = []
+    for branch in ("heating", "cooling"):
+        lines = [f[branch] for f in fits[:3]]
+        if any(p is None for p in lines):
+            spreads.append(math.inf)
+            continue
+        values = np.array([np.polyval(p, grid) for p in lines])
+        spreads.append(float(np.max(np.ptp(values, axis=0))))
+    rows.append(
+        make_row(
+            "A18",
+            f"largest gap between the 5 / 7.5 / 10 V lines: heating {fmt(spreads[0])} ohm, cooling {fmt(spreads[1])} ohm",
+            max(spreads) <= 0.02,
+            "the same loop at 5, 7.5 and 10 V",
+            "heating lines within 0.02 ohm of each other over 1-6.5 mm, cooling lines too",
+        )
+    )
+    r_heat = np.polyval(ph, grid[(grid >= 2e-3) & (grid <= 6e-3)])
+    x_cool = (r_heat - pc[1]) / pc[0]
+    gap_mm = float(np.max(np.abs(x_cool - grid[(grid >= 2e-3) & (grid <= 6e-3)]))) * 1e3
+    rows.append(
+        make_row(
+            "A20",
+            f"heating and cooling lines {fmt(gap_mm)} mm apart at equal R",
+            gap_mm >= 0.1,
+            "10 V loop, 2-6 mm: the position error of reading one line on the other branch",
+            ">= 0.1 mm",
         )
     )
     return rows
