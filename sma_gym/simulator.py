@@ -17,8 +17,8 @@ compiled core reads these views (or :meth:`Simulator.read`), never the layout in
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable, Sequence
 from operator import itemgetter
-from typing import Callable, Iterable, Sequence
 
 import numpy as np
 

@@ -61,7 +61,7 @@ def reject_unknown(unknown: dict[str, Any], accepted: tuple[str, ...]) -> None:
     """Raise ``ValueError`` for env kwargs that are not in the env's signature."""
     if not unknown:
         return
-    name = sorted(unknown)[0]
+    name = min(unknown)
     if name in CONDITION_KWARGS:
         raise ValueError(f"{name} = {unknown[name]!r}: only the robustness env randomises conditions; use model= here")
     if name == "pwm_mode":
@@ -82,7 +82,7 @@ class Settings:
     conditions: Conditions | None
 
     @classmethod
-    def from_arguments(cls, variant: Variant, arguments: dict[str, Any], **fixed: Any) -> "Settings":
+    def from_arguments(cls, variant: Variant, arguments: dict[str, Any], **fixed: Any) -> Settings:
         """Validate an env's keyword arguments; each error names the value and what was expected.
 
         ``arguments`` is ``dict(locals())`` at the top of the env's ``__init__``: every

@@ -23,6 +23,7 @@ at duty 1, so the energy term is at most ``energy_weight`` per step.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -251,7 +252,7 @@ class TaskState:
         r = info.pop("resistance_measured_ohm")
         info["reference_m"] = float(reference_m)
         info["reference_kind"] = int(self.kind[i])
-        info["resistance_valid"] = r == r  # not NaN: a reading was taken
+        info["resistance_valid"] = not math.isnan(r)  # a reading was taken
         return info
 
 
