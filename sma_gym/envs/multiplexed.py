@@ -137,6 +137,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         self._term = np.zeros(self.n, dtype=np.bool_)
         self._ref = np.zeros(self.n)
         self._duty = np.zeros((1, self.n))
+        self._evaluate = self.task.bind(self.sim, self._actuators, self._obs, self._reward, self._term, self._ref)
 
     def duty_for(self, actions: np.ndarray) -> np.ndarray:
         """Each actuator's duty for (clipped) actions in [-1, 1] (:meth:`DutyRange.duty_for`)."""
@@ -180,11 +181,9 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         self.sim.step_unchecked(self._duty)
         self.task.last_duty[:] = duty
         self._evaluate()
-        self._rendered_step()
+        if self.render_mode is not None:
+            self._rendered_step()
         return self._obs.reshape(-1).copy(), float(self._reward.mean()), bool(self._term.any()), False, self._info()
-
-    def _evaluate(self) -> None:
-        self.task.evaluate(self.sim, self._actuators, self._obs, self._reward, self._term, self._ref)
 
     def _info(self) -> dict[str, Any]:
         info = self.task.info(self.sim, self._ref)

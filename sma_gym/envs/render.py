@@ -229,7 +229,8 @@ class EpisodeRendering:
 
     The env sets ``sim`` (a :class:`~sma_gym.Simulator`), ``task`` (its task state) and
     ``_ref`` (the references of the last step) and calls :meth:`_init_rendering` when it is
-    made, :meth:`_start_rendering` after a reset and :meth:`_rendered_step` after a step.
+    made, :meth:`_start_rendering` after a reset and :meth:`_rendered_step` after a step
+    (only while ``render_mode`` is set: nothing is recorded otherwise).
     Every actuator of ``sim`` is drawn, each in its own colour.
     """
 

@@ -207,6 +207,7 @@ class SMAEnv(EpisodeRendering, ImportableSpec, gym.Env):
         self.condition: dict[str, Any] | None = None
         """The condition drawn at the last reset (robustness env), else ``None``."""
         self._condition_info: dict[str, float | bool] = {}
+        self._evaluate = self.task.bind(self.sim, _ONE_ACTUATOR, self._obs, self._reward, self._term, self._ref)
 
     def _set_scales(self) -> None:
         self.position_scale_m = float(self.sim.usable_stroke_m[0])
@@ -243,11 +244,9 @@ class SMAEnv(EpisodeRendering, ImportableSpec, gym.Env):
         self.sim.step_unchecked(self._duty)
         self.task.last_duty[0] = duty
         self._evaluate()
-        self._rendered_step()
+        if self.render_mode is not None:
+            self._rendered_step()
         return self._obs[0].copy(), float(self._reward[0]), bool(self._term[0]), False, self._info()
-
-    def _evaluate(self) -> None:
-        self.task.evaluate(self.sim, _ONE_ACTUATOR, self._obs, self._reward, self._term, self._ref)
 
     def _info(self) -> dict[str, Any]:
         info = self.task.info_of(self.sim, 0, self._ref[0])

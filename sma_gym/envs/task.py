@@ -24,6 +24,8 @@ at duty 1, so the energy term is at most ``energy_weight`` per step.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -235,6 +237,23 @@ class TaskState:
             sim.state, sim.params, self.observation, self.kind, self.params, self.wp_t, self.wp_x, self.held,
             self.last_duty, self.energy_weight, self.overheat_limit_c, obs_out, reward_out, term_out, ref_out,
             actuators,
+        )
+
+    def bind(
+        self,
+        sim: Simulator,
+        actuators: np.ndarray,
+        obs_out: np.ndarray,
+        reward_out: np.ndarray,
+        term_out: np.ndarray,
+        ref_out: np.ndarray,
+    ) -> Callable[[], None]:
+        """:meth:`evaluate` with these arguments, as a call without arguments (an env step
+        makes it every time; the arrays are updated in place, never replaced)."""
+        return partial(
+            task_outputs, sim.state, sim.params, self.observation, self.kind, self.params, self.wp_t, self.wp_x,
+            self.held, self.last_duty, self.energy_weight, self.overheat_limit_c, obs_out, reward_out, term_out,
+            ref_out, actuators,
         )
 
     def info(self, sim: Simulator, reference_m: np.ndarray) -> dict[str, Any]:
