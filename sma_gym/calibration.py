@@ -17,7 +17,7 @@ from dataclasses import replace
 
 from sma_gym import fidelity
 from sma_gym.model import ModelConfig
-from sma_gym.params import FORCED_CONVECTION_FACTOR, standard
+from sma_gym.params import FORCED_CONVECTION_FACTOR, preset, standard
 
 
 def _model(h0: float, rho_a: float, forced: bool = False) -> ModelConfig:
@@ -191,11 +191,60 @@ def calibrate_bench(fit_file: str = "step01.csv", check_file: str = "ramp01.csv"
     return values
 
 
+TWIN_RUNS = ("step01.csv", "ramp01.csv", "step03.csv", "step07.csv")
+"""The shared real runs the ``bench-0.5mm-ht`` twin is identified on (all four)."""
+
+
+def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = True) -> ModelConfig:
+    """Identify the ``bench-0.5mm-ht`` twin on the four shared real runs and write it.
+
+    ``sma-gym diagnose`` on all four runs (the last 30 % of each held out, as the workflow
+    does without held-out files) from the datasheet actuator ``bench-0.5mm-ht-datasheet``, up
+    to ``max_rounds`` rounds; the corrected model, with the effects found and the gap it
+    reached in its notes, becomes ``sma_gym/models/bench-0.5mm-ht.json``.
+    """
+    from pathlib import Path
+
+    from sma_gym.data import find_real_data_dir, load_trace
+    from sma_gym.diagnosis import diagnose
+    from sma_gym.models import twin_path
+
+    where = Path(folder) if folder else find_real_data_dir()
+    if where is None or not where.is_dir():
+        raise SystemExit("the shared real runs (../shared/data/real) are not on this machine")
+    traces = [load_trace(where / name) for name in TWIN_RUNS]
+    nominal = ModelConfig(preset("bench-0.5mm-ht-datasheet"))
+    result = diagnose(traces, [], nominal, max_rounds=max_rounds, progress=lambda m: print("twin:", m, flush=True))
+    corrected = result.gap_by_file["corrected"]
+    gap = ", ".join(f"{name} {rms['position'] * 1e3:.3f} mm" for name, rms in corrected["fit"].items())
+    held = ", ".join(f"{name} {rms['position'] * 1e3:.3f} mm" for name, rms in corrected["heldout"].items())
+    found = ", ".join(result.effects_found) or "none"
+    twin = ModelConfig(
+        replace(result.corrected_model.actuator, name="bench-0.5mm-ht", description=(
+            "Twin of the real bench of shared/data/real (0.5 mm HT Flexinol, 0.96 m, 24 V, 35 g sleigh, "
+            "0.07 N/mm spring), identified on its four shared runs by python -m sma_gym.calibration twin."
+        )),
+        result.corrected_model.effects,
+        notes=(
+            f"Identified by python -m sma_gym.calibration twin from bench-0.5mm-ht-datasheet on {', '.join(TWIN_RUNS)} "
+            f"(last 30 % of each held out), {len(result.rounds)} round(s); effects found: {found}. "
+            f"Position RMS, fitted part: {gap}; held-out part: {held}."
+        ),
+    )
+    if write:
+        path = twin.save(twin_path("bench-0.5mm-ht"))
+        print(f"twin: wrote {path}")
+    print("twin:", twin.notes)
+    return twin
+
+
 if __name__ == "__main__":
     import sys
 
     if sys.argv[1:] == ["bench"]:
         calibrate_bench()
+    elif sys.argv[1:] == ["twin"]:
+        identify_twin()
     else:
         p = standard()
         calibrate(p.convection.h0_w_m2_k, p.wire.resistivity_austenite_ohm_m)

@@ -1,7 +1,8 @@
 """A model configuration: actuator parameters plus the effects switched on.
 
 This is what the diagnosis workflow writes after it has added a missing effect, and what
-every env accepts at ``gymnasium.make(..., model=...)``: a preset name, a path to a JSON
+every env accepts at ``gymnasium.make(..., model=...)``: a preset or twin name
+(:mod:`sma_gym.models`), a path to a JSON
 file written by :meth:`ModelConfig.save`, a :class:`ModelConfig`, or bare
 :class:`~sma_gym.params.ActuatorParams`.
 
@@ -27,6 +28,7 @@ from typing import Any, Mapping, Union
 
 from sma_gym._io import read_json_object, write_json
 from sma_gym.effects import EffectSet, EffectSetting
+from sma_gym.models import twin_names, twin_path
 from sma_gym.params import ActuatorParams, preset, preset_names
 
 FORMAT_NAME = "sma-gym-model"
@@ -104,8 +106,13 @@ class ModelConfig:
 ModelSpec = Union[str, os.PathLike, ModelConfig, ActuatorParams, Mapping[str, Any], None]
 
 
+def model_names() -> tuple[str, ...]:
+    """Every name :func:`load_model` resolves: the actuator presets and the shipped twins."""
+    return preset_names() + twin_names()
+
+
 def load_model(spec: ModelSpec = None) -> ModelConfig:
-    """Resolve a preset name, a JSON file path, a dict, parameters or a config to a config."""
+    """Resolve a preset or twin name, a JSON file path, a dict, parameters or a config."""
     if spec is None:
         return ModelConfig()
     if isinstance(spec, ModelConfig):
@@ -118,10 +125,12 @@ def load_model(spec: ModelSpec = None) -> ModelConfig:
         text = os.fspath(spec)
         if text in preset_names():
             return ModelConfig(actuator=preset(text))
+        if text in twin_names():
+            return ModelConfig.load(twin_path(text))
         if text.endswith(".json") or os.path.sep in text or os.path.exists(text):
             return ModelConfig.load(text)
         raise ValueError(
-            f"model = {text!r}: expected a preset name ({', '.join(preset_names())}) or a path to a model JSON file"
+            f"model = {text!r}: expected a preset name ({', '.join(model_names())}) or a path to a model JSON file"
         )
     raise ValueError(f"model = {spec!r}: expected a preset name, a path, ModelConfig or ActuatorParams")
 

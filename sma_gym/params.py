@@ -573,7 +573,9 @@ def forced_convection() -> ActuatorParams:
 
 
 def bench_05mm_ht() -> ActuatorParams:
-    """The real bench of ``shared/data/real`` (a university course's Flexinol actuator).
+    """The real bench of ``shared/data/real`` (a university course's Flexinol actuator) as its
+    makers describe it: the starting point of its twin, the model ``bench-0.5mm-ht``
+    (:mod:`sma_gym.models`), which ``python -m sma_gym.calibration twin`` identifies from it.
 
     From its README: 0.5 mm HT Flexinol, about 0.96 m, 4.3 ohm/m, A_s/A_f/M_s/M_f =
     88/98/72/62 degC, resistivity 76 (M) / 82 (A) uohm cm, Young's modulus 28-40 / 75-83 GPa,
@@ -631,8 +633,11 @@ def bench_05mm_ht() -> ActuatorParams:
         convection=Convection(h0_w_m2_k=40.0, h2_w_m2_k3=40.0 * 1.5e-3 / 75.6),
         driver=Driver(supply_voltage_v=24.0, pwm_frequency_hz=1000.0, end_of_travel_m=math.inf),
         sensors=Sensors(),
-        name="bench-0.5mm-ht",
-        description="Real bench of shared/data/real: 0.5 mm HT Flexinol, 0.96 m, 24 V, 35 g sleigh, 0.07 N/mm spring.",
+        name="bench-0.5mm-ht-datasheet",
+        description=(
+            "Real bench of shared/data/real from its makers' description (0.5 mm HT Flexinol, 0.96 m, 24 V, "
+            "35 g sleigh, 0.07 N/mm spring), before identification; the twin is the model 'bench-0.5mm-ht'."
+        ),
     )
 
 
@@ -651,7 +656,7 @@ _PRESETS = {
     "wire-0.2mm": lambda: _wire(0.2),
     "wire-0.3mm": lambda: _wire(0.3),
     "wire-0.5mm": lambda: _wire(0.5),
-    "bench-0.5mm-ht": bench_05mm_ht,
+    "bench-0.5mm-ht-datasheet": bench_05mm_ht,
 }
 
 

@@ -172,7 +172,7 @@ def test_real_bench_data_smoke_run(tmp_path):
     folder = find_real_data_dir()
     fit = load_trace(folder / "step01.csv")
     held = load_trace(folder / "ramp01.csv")
-    result = diagnose([fit], [held], load_model("bench-0.5mm-ht"), max_rounds=1)
+    result = diagnose([fit], [held], load_model("bench-0.5mm-ht-datasheet"), max_rounds=1)
     assert result.verdict in ("effect", "ambiguous", "none", "unexplained")
     assert set(result.gap_before) == {"fit", "heldout"}
     assert np.isfinite(result.gap_after["heldout"]["position"])

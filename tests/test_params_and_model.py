@@ -22,7 +22,7 @@ def test_presets_cover_the_reports_conditions_and_the_bench():
         "supply-20v",
         "wire-0.2mm",
         "wire-0.5mm",
-        "bench-0.5mm-ht",
+        "bench-0.5mm-ht-datasheet",
     ):
         assert required in names
     assert preset("supply-15v").driver.supply_voltage_v == 15.0
@@ -86,8 +86,31 @@ def test_with_changes_rejects_unknown_fields():
     assert changed.driver.supply_voltage_v == 12.0 and changed.wire.length_m == 0.3
 
 
+def test_the_bench_twin_ships_with_its_effects_and_trains():
+    """``bench-0.5mm-ht`` is the twin identified on the four shared real runs: a whole model
+    (actuator and effects) resolved by name, distinct from the datasheet preset it started
+    from, and an env steps on it."""
+    import gymnasium as gym
+
+    from sma_gym.model import model_names
+    from sma_gym.models import twin_path
+
+    twin = load_model("bench-0.5mm-ht")
+    assert "bench-0.5mm-ht" in model_names() and "bench-0.5mm-ht-datasheet" in model_names()
+    assert twin.actuator.name == "bench-0.5mm-ht" and "calibration twin" in twin.notes
+    assert twin.effects.active(), "the twin carries the effects the diagnosis found"
+    assert twin != ModelConfig(preset("bench-0.5mm-ht-datasheet"))
+    assert load_model(str(twin_path("bench-0.5mm-ht"))) == twin
+    env = gym.make("sma_gym:SMATracking-v0", model="bench-0.5mm-ht")
+    obs, _ = env.reset(seed=0)
+    for _ in range(200):
+        obs, reward, terminated, truncated, _ = env.step(env.action_space.sample())
+        assert np.all(np.isfinite(obs)) and np.isfinite(reward)
+    env.close()
+
+
 def test_model_config_round_trips_through_json(tmp_path):
-    model = ModelConfig(preset("bench-0.5mm-ht")).with_effect("latent_heat", {"change_j_kg": 12000.0})
+    model = ModelConfig(preset("bench-0.5mm-ht-datasheet")).with_effect("latent_heat", {"change_j_kg": 12000.0})
     model = model.with_effect("sensor_lag", {"time_constant_s": 0.02}, form="second-order")
     path = model.save(tmp_path / "m.json")
     again = load_model(str(path))
