@@ -164,6 +164,21 @@ def test_atomic_writes_leave_the_old_file_or_the_new_one(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json"]
 
 
+def test_atomic_writes_give_the_file_the_users_usual_permissions(tmp_path):
+    """A temporary file is private (0600); the written file must not stay so (a model or a
+    report shared with a group would be unreadable), but get 0666 less the umask."""
+    from sma_gym._io import write_text
+
+    old = os.umask(0o022)
+    try:
+        path = write_text(tmp_path / "r.md", "x")
+        plain = tmp_path / "plain.md"
+        plain.write_text("x")
+    finally:
+        os.umask(old)
+    assert path.stat().st_mode & 0o777 == plain.stat().st_mode & 0o777 == 0o644
+
+
 def test_a_busy_out_is_refused_and_a_stale_lock_is_taken_over(tmp_path):
     from sma_gym._io import LOCK_NAME, locked_folder
 
