@@ -123,25 +123,28 @@ def plot_multiplexed(trace_of: Callable[[int, float, float], Any], count_conditi
 
 
 def plot_bench(out: Path) -> Path:
-    """The ``bench-0.5mm-ht`` preset's open-loop response beside the real measurements."""
+    """The real bench's four shared runs beside the datasheet model and the twin
+    ``bench-0.5mm-ht`` (identified on them), each sensor zero read off its rest segment."""
     from sma_gym.data import find_real_data_dir, load_trace
     from sma_gym.simulator import Simulator
 
-    fig, axes = new_figure(1, 2, size=(11, 4.5))
+    fig, axes = new_figure(2, 2, size=(11, 8))
     folder = find_real_data_dir()
-    for ax, name in zip(axes.flat, ("step01.csv", "ramp01.csv")):
+    for ax, name in zip(axes.flat, ("step01.csv", "ramp01.csv", "step03.csv", "step07.csv")):
         if folder is None or not (folder / name).exists():
             ax.text(0.5, 0.5, "shared/data/real not found", ha="center", transform=ax.transAxes)
             continue
         trace = load_trace(folder / name)
         ends, duty = trace.duty_at_control_steps(1e-3)
-        sim = Simulator("bench-0.5mm-ht")
-        rec = sim.run(duty, record=("position_measured_m", "temperature_c"))
-        ax.plot(trace.t, trace.position * 1e3, "k", lw=1.5, label="measured")
-        ax.plot(ends, rec["position_measured_m"][:, 0] * 1e3, "C1", label="bench-0.5mm-ht preset")
+        rest = trace.t < trace.t[np.flatnonzero(trace.duty > 0)[0]] if np.any(trace.duty > 0) else trace.t < np.inf
+        zero_m = float(np.mean(trace.position[rest]))
+        ax.plot(trace.t, (trace.position - zero_m) * 1e3, "k", lw=1.5, label="measured")
+        for model, colour in (("bench-0.5mm-ht-datasheet", "C0"), ("bench-0.5mm-ht", "C1")):
+            rec = Simulator(model).run(duty, record=("position_measured_m",))
+            ax.plot(ends, rec["position_measured_m"][:, 0] * 1e3, colour, label=model)
         ax2 = ax.twinx()
         ax2.plot(trace.t, trace.duty, color="0.6", lw=0.8)
         ax2.set_ylabel("duty [-]", color="0.5")
-        ax.set(xlabel="time [s]", ylabel="position [mm]", title=f"Real bench, {name}")
+        ax.set(xlabel="time [s]", ylabel="position from rest [mm]", title=f"Real bench, {name}")
         ax.legend(fontsize=8, loc="center right")
     return save(fig, out)
