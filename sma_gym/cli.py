@@ -17,7 +17,8 @@ import argparse
 import sys
 from dataclasses import dataclass
 from importlib.metadata import entry_points
-from typing import Callable, Sequence
+from pathlib import Path
+from typing import Any, Callable, Sequence
 
 COMMANDS_GROUP = "sma_gym.commands"
 """Entry-point group of the subcommands other packages add (each names a :class:`Command`)."""
@@ -45,8 +46,6 @@ def _bench(args: argparse.Namespace) -> int:
 
 
 def _diagnose(args: argparse.Namespace) -> int:
-    import json
-
     from sma_gym._io import check_output_folder, locked_folder
     from sma_gym.data import MeasuredDataError, load_traces
     from sma_gym.data.measured import DIAGNOSIS_MIN_ROWS
@@ -75,33 +74,47 @@ def _diagnose(args: argparse.Namespace) -> int:
         print(f"sma-gym diagnose: {message}", file=sys.stderr, flush=True)
 
     if args.cross_validate:
-        from sma_gym._io import write_json, write_text
-        from sma_gym.diagnosis.report import cross_validation_table
-        from sma_gym.diagnosis.workflow import cross_validate
-
-        with locked_folder(out):
-            cv = cross_validate(fit, nominal, effects, progress=progress, max_rounds=args.max_rounds)
-            table = cross_validation_table(cv)
-            write_json(out / "cross_validation.json", cv)
-            write_text(out / "cross_validation.md", "# Leave one run out\n\n" + table)
-        print(json.dumps(cv) if args.json else table, end="" if not args.json else "\n")
-        return 0
+        return _cross_validate(args, fit, nominal, effects, out, progress)
     with locked_folder(out):
         result = diagnose(fit, held, nominal, effects, progress=progress, max_rounds=args.max_rounds)
         paths = write_outputs(result, out, fit, held, nominal)
-    if args.json:
+    _print_diagnosis(result, paths, args.json)
+    return 0
+
+
+def _cross_validate(args: argparse.Namespace, fit: Any, nominal: Any, effects: list[str] | None, out: Path, progress: Callable[[str], None]) -> int:
+    """``sma-gym diagnose --cross-validate``: leave one run out, table and JSON into ``out``."""
+    import json
+
+    from sma_gym._io import locked_folder, write_json, write_text
+    from sma_gym.diagnosis.report import cross_validation_table
+    from sma_gym.diagnosis.workflow import cross_validate
+
+    with locked_folder(out):
+        cv = cross_validate(fit, nominal, effects, progress=progress, max_rounds=args.max_rounds)
+        table = cross_validation_table(cv)
+        write_json(out / "cross_validation.json", cv)
+        write_text(out / "cross_validation.md", "# Leave one run out\n\n" + table)
+    print(json.dumps(cv) if args.json else table, end="" if not args.json else "\n")
+    return 0
+
+
+def _print_diagnosis(result: Any, paths: dict[str, Path], as_json: bool) -> None:
+    """The verdict and the gaps before -> after (or the whole result as JSON)."""
+    import json
+
+    if as_json:
         from sma_gym.diagnosis.report import json_default
 
         print(json.dumps(result.as_dict(), default=json_default))
-    else:
-        joiner = " + " if result.verdict == "effects" else " or "
-        effect = result.effect if isinstance(result.effect, str) or result.effect is None else joiner.join(result.effect)
-        print(f"verdict: {result.verdict}" + (f" ({effect})" if effect else ""))
-        for data in ("fit", "heldout"):
-            for output, before in result.gap_before[data].items():
-                print(f"  {data:8s} {output:10s} RMS {before:.4g} -> {result.gap_after[data].get(output, float('nan')):.4g}")
-        print(f"report: {paths['report']}\ncorrected model: {paths['model']}")
-    return 0
+        return
+    joiner = " + " if result.verdict == "effects" else " or "
+    effect = result.effect if isinstance(result.effect, str) or result.effect is None else joiner.join(result.effect)
+    print(f"verdict: {result.verdict}" + (f" ({effect})" if effect else ""))
+    for data in ("fit", "heldout"):
+        for output, before in result.gap_before[data].items():
+            print(f"  {data:8s} {output:10s} RMS {before:.4g} -> {result.gap_after[data].get(output, float('nan')):.4g}")
+    print(f"report: {paths['report']}\ncorrected model: {paths['model']}")
 
 
 def _synth(args: argparse.Namespace) -> int:
