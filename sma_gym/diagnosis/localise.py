@@ -73,7 +73,7 @@ def regime_masks(model: ModelConfig, data: TraceData, control_period_s: float) -
     masks[f"T < A_s ({w.austenite_start_c:g} degC)"] = temp < w.austenite_start_c
     masks["A_s <= T <= A_f"] = (temp >= w.austenite_start_c) & (temp <= w.austenite_finish_c)
     masks[f"T > A_f ({w.austenite_finish_c:g} degC)"] = temp > w.austenite_finish_c
-    stroke = model.actuator.wire.max_stroke_m
+    stroke = model.actuator.usable_stroke_m
     masks["x in first third of stroke"] = x < stroke / 3
     masks["x in middle third"] = (x >= stroke / 3) & (x < 2 * stroke / 3)
     masks["x in last third"] = x >= 2 * stroke / 3

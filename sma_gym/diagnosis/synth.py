@@ -173,7 +173,7 @@ def generate(spec: SynthSpec) -> tuple[MeasuredTrace, dict[str, Any]]:
     """A measured trace and its labels."""
     rng = np.random.default_rng(spec.seed)
     truth, perturbation = perturb(spec.truth(), spec.perturb, rng)
-    stroke = min(truth.actuator.driver.end_of_travel_m, truth.actuator.wire.max_stroke_m)
+    stroke = truth.actuator.usable_stroke_m
     ref = excitation(spec.excitation, spec.duration_s, stroke, rng)
     sim = Simulator(truth, control_period_s=CONTROL_PERIOD_S, rng=rng)
     p = truth.actuator
@@ -289,7 +289,7 @@ def check_spec(spec: SynthSpec) -> None:
             f"expected at least {max(MIN_SAMPLES, DIAGNOSIS_MIN_ROWS)} (shorter period or longer duration)"
         )
     p = spec.model.actuator
-    stroke = min(p.driver.end_of_travel_m, p.wire.max_stroke_m)
+    stroke = p.usable_stroke_m
     require_range("--position-noise", spec.position_noise_m, 0.0, MAX_NOISE_FRACTION * stroke, "m, 5 % of the stroke")
     require_range("--position-resolution", spec.position_resolution_m, 0.0, MAX_NOISE_FRACTION * stroke, "m, 5 % of the stroke")
     require_range("--resistance-noise", spec.resistance_noise_ohm, 0.0, MAX_NOISE_FRACTION * p.wire.cold_resistance_ohm, "ohm, 5 % of the cold resistance")
