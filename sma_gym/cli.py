@@ -129,7 +129,7 @@ def _bench_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("files", nargs="+", help="measured traces to fit (CSV, see README: measured data)")
+    p.add_argument("files", nargs="+", help="measured traces to fit (CSV, see docs/diagnosis.md: measured data)")
     p.add_argument("--heldout", nargs="+", help="measured traces never used for fitting")
     p.add_argument("--out", required=True, help="folder for the report, plots, JSON and corrected_model.json")
     p.add_argument("--model", default="standard", help="nominal model: a preset name or a model JSON file (default standard)")

@@ -1,7 +1,7 @@
 """Reference policies and the evaluation harness, against the report's findings.
 
 T6 (Table 6.1), T7 (chapter 7) and T8 (chapter 9) as the simulator reproduces them.
-Findings it does not reproduce are listed in the README with the reason, not asserted.
+Findings it does not reproduce are listed in docs/baselines.md with the reason, not asserted.
 """
 
 import json
