@@ -1,4 +1,4 @@
-"""The report's controllers (§6, MODEL.md §4), vectorised over n actuators.
+"""The report's controllers (§6, docs/model.md §10), vectorised over n actuators.
 
 Each controller maps what a real controller reads (the measured position, the reference
 and its rate, its own time step) to a duty cycle in [0, 1]. They never see the simulator's
@@ -23,7 +23,8 @@ simulation, see ``sma-gym evaluate``):
   without which a VSC with feedforward could not cool (the report's can, Table 6.1).
 * VSC3/VSC4 use phi = 0.0011 m, not the printed 0.011: with a continuous boundary law the
   steady-state error is (holding duty) * phi, and the report's 0.046 mm needs phi ~ 0.001
-  (0.011 gives 0.7 mm in simulation); the printed value is the typo MODEL.md suspects.
+  (0.011 gives 0.7 mm in simulation); the printed value is the typo docs/model.md §10
+  suspects.
 * Anti-windup: the integral is clamped (§6.1: "the integral action is bounded"), per
   controller since the report tuned each separately and states no bound: PID 0.8 of the
   duty range, VSC4 0.1. Plain clamping, not conditional integration: in this model the

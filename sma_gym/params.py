@@ -5,7 +5,7 @@ the wire (:class:`Wire`), the mechanism it pulls (:class:`Mechanism`), the
 heat transfer to the surroundings (:class:`Convection`), the PWM driver and
 supply (:class:`Driver`) and the sensors (:class:`Sensors`).
 
-Every field's docstring gives the symbol used in ``MODEL.md`` / the report,
+Every field's docstring gives the symbol used in ``docs/model.md`` / the report,
 the unit, the value and where it comes from: a section of the report
 (Lunenburg 2009, cited as "§5.6"), a datasheet, or our own calibration
 (``sma-gym fidelity`` shows the calibration targets it meets). Where the
@@ -528,7 +528,7 @@ def _json_float(value: Any) -> Any:
 # Presets
 # --------------------------------------------------------------------------------------
 
-#: Fan cooling (§7.1) multiplies h by this factor. MODEL.md quotes 1.6-3.7 for fans
+#: Fan cooling (§7.1) multiplies h by this factor. docs/model.md §4 quotes 1.6-3.7 for fans
 #: (Doroudchi 2018); the report gives no number. We take 2.5, between the low and the high
 #: fan setting.
 FORCED_CONVECTION_FACTOR = 2.5

@@ -5,10 +5,11 @@ Why this exists
 ``sma-gym synth`` generates its test data with the very kernel the diagnosis fits, so a
 benchmark built on it can be passed by a diagnosis that has learnt the kernel's quirks (the
 "inverse crime"). This module is a *second* implementation of the same physics, written
-from ``MODEL.md`` §1 and the parameter docstrings of :mod:`sma_gym.params`, that shares no
-code with ``sma_gym.core``, ``sma_gym.physics`` or ``sma_gym.simulator``. It reads the same
-parameter values (:class:`sma_gym.params.ActuatorParams`) and writes the same measured-data
-format (:class:`sma_gym.data.MeasuredTrace`), so ``sma-gym diagnose`` can read its files.
+from the equations of ``docs/model.md`` §2-§5 and the parameter docstrings of
+:mod:`sma_gym.params`, that shares no code with ``sma_gym.core``, ``sma_gym.physics`` or
+``sma_gym.simulator``. It reads the same parameter values
+(:class:`sma_gym.params.ActuatorParams`) and writes the same measured-data format
+(:class:`sma_gym.data.MeasuredTrace`), so ``sma-gym diagnose`` can read its files.
 
 What is deliberately different from our kernel
 ----------------------------------------------

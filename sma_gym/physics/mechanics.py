@@ -1,6 +1,6 @@
 """Mechanics and phase transformation, solved together implicitly.
 
-Equations (report §5.1-5.3, MODEL.md §1)::
+Equations (report §5.1-5.3, docs/model.md §2-§3)::
 
     M x'' + c x' + k x + F_pre + f_friction = A sigma
     sigma = sigma0 + D(xi) (eps0 (1 - xi) - x / l0 - alpha (T - T_amb))      (*)

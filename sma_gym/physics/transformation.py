@@ -1,6 +1,6 @@
 """Phase transformation: the cosine law with stress-shifted temperatures and hysteresis.
 
-Major loop (report eq. 5.4-5.5, MODEL.md §1)::
+Major loop (report eq. 5.4-5.5, docs/model.md §3)::
 
     heating  (M -> A):  xi_H(T, sigma) = F((T - A_s - sigma / C_A) / (A_f - A_s))
     cooling  (A -> M):  xi_C(T, sigma) = F((T - M_f - sigma / C_M) / (M_s - M_f))
