@@ -20,7 +20,7 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
     out = tmp_path / "run"
     proc = subprocess.run(
         [sys.executable, str(ROOT / "train.py"), "--quick", "--no-progress", "--out", str(out)],
-        capture_output=True, text=True, timeout=900, cwd=tmp_path,
+        check=False, capture_output=True, text=True, timeout=900, cwd=tmp_path,
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert f"run folder: {out}" in proc.stdout
@@ -57,7 +57,7 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
     proc = subprocess.run(
         [sys.executable, "-m", "sma_gym.cli", "evaluate", "--policy", str(out / "best_model.zip"), "--experiments", "6.1",
          "--seeds", "1", "--baselines", "PID", "--json"],
-        capture_output=True, text=True, timeout=900, cwd=tmp_path,
+        check=False, capture_output=True, text=True, timeout=900, cwd=tmp_path,
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     rows = json.loads(proc.stdout)
@@ -65,11 +65,11 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
 
 
 def test_train_rejects_bad_options():
-    proc = subprocess.run([sys.executable, str(ROOT / "train.py"), "--env", "NoSuchEnv-v0"], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run([sys.executable, str(ROOT / "train.py"), "--env", "NoSuchEnv-v0"], check=False, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "NoSuchEnv-v0" in proc.stderr
-    proc = subprocess.run([sys.executable, str(ROOT / "train.py"), "--timesteps", "0"], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run([sys.executable, str(ROOT / "train.py"), "--timesteps", "0"], check=False, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "timesteps" in proc.stderr
-    proc = subprocess.run([sys.executable, str(ROOT / "train.py"), "--threads", "0"], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run([sys.executable, str(ROOT / "train.py"), "--threads", "0"], check=False, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "threads" in proc.stderr
 
 

@@ -7,7 +7,7 @@
 ``train.py`` (at the top of the repository) is a shell over this package:
 
 * :mod:`agents.training.config`: :class:`RunConfig`, the frozen run configuration, from
-  ``hyperparams/<env id>.toml`` (one table per algorithm, RL Zoo style) overridden by the
+  ``hyperparams/<algo>.yml`` (RL Zoo's format, which the zoo reads too) overridden by the
   command line, every value checked before anything is created;
 * :mod:`agents.training.envs`: what the agent sees and does (residual base controller,
   history features, frame stack) in training and on the validation references;

@@ -9,12 +9,21 @@ goals checked (:data:`GOALS`).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 from agents.controllers import ALL_SPECS, PID, VSC3, with_feedforward
-from agents.evaluation import CHAPTER_7_CONDITIONS, PolicyEntry, Results, agent_entry, baseline, run_chapter_7, run_table_6_1
+from agents.evaluation import (
+    CHAPTER_7_CONDITIONS,
+    PolicyEntry,
+    Results,
+    agent_entry,
+    baseline,
+    run_chapter_7,
+    run_table_6_1,
+)
 from agents.report import write_report
 from agents.trained import load_policy
 from agents.training.config import RunConfig

@@ -1,14 +1,18 @@
 """The run configuration of ``train.py``: hyperparameter file, command line, checks.
 
-Hyperparameters live in ``hyperparams/<env id>.toml`` (one table per algorithm, RL Zoo
-style); command-line options override them. :meth:`RunConfig.from_args` merges the two and
-checks every value before anything is created, so a bad option exits 2 with its name.
+Hyperparameters live in ``hyperparams/<algo>.yml``, RL Baselines3 Zoo's format (one file
+per algorithm, one entry per env id), the one source that ``train.py`` and
+``python -m rl_zoo3.train --conf-file hyperparams/<algo>.yml`` both read. The agent's
+features are the entry's ``vec_env_wrapper`` list (:data:`RESIDUAL_WRAPPER`, then
+:data:`HISTORY_WRAPPER`); command-line options override the file.
+:meth:`RunConfig.from_args` merges the two and checks every value before anything is
+created, so a bad option exits 2 with its name.
 """
 
 from __future__ import annotations
 
 import argparse
-import tomllib
+import ast
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -20,32 +24,99 @@ ROOT = Path(__file__).resolve().parents[2]
 """The repository: ``train.py``, ``hyperparams/`` and the default ``runs/`` live here."""
 HYPERPARAMS = ROOT / "hyperparams"
 ALGOS = ("sac", "ppo")
+DEFAULT_ALGO = "sac"
 QUICK_TIMESTEPS = 1_500
 DEFAULT_RESIDUAL_SCALE = 0.5
-DEFAULT_EVAL_FREQ = 20_000
-_RUN_KEYS = ("n_timesteps", "n_envs", "frame_stack", "history", "residual", "residual_scale", "eval_freq", "env_kwargs")
-"""Keys of a hyperparameter table that configure the run; the rest go to the algorithm."""
+EVAL_FREQ = {"sac": 20_000, "ppo": 250_000}
+"""Default ``--eval-freq`` per algorithm: a command-line option, as in RL Zoo, not a hyperparameter."""
+RESIDUAL_WRAPPER = "agents.training.envs.ResidualVecEnv"
+HISTORY_WRAPPER = "agents.training.envs.HistoryVecEnv"
+NOT_FOR_TRAIN_PY = {
+    "SMAMultiplexed-v0": "train.py compares its agent with the report's single-wire controllers; "
+    "train this env with RL Zoo (README \"Training\")",
+}
+"""Env ids the hyperparameter files hold for RL Zoo only, with the reason."""
+_RUN_KEYS = ("n_timesteps", "n_envs", "frame_stack", "vec_env_wrapper", "env_kwargs")
+"""Zoo keys that configure the run; the rest go to the algorithm."""
+_ZOO_ONLY_KEYS = ("normalize", "env_wrapper", "callback", "monitor_kwargs", "replay_buffer_class", "replay_buffer_kwargs", "noise_type", "noise_std")
+"""Zoo keys train.py does not implement: refused rather than silently ignored."""
 
 DESCRIPTION = "Train a stable-baselines3 agent on an sma-gym env and compare it with the report's controllers."
 
 
-def load_hyperparams(env_id: str) -> dict[str, Any]:
-    """The parsed ``hyperparams/<env_id>.toml``; ``ValueError`` naming the known ids if absent."""
-    path = HYPERPARAMS / f"{env_id}.toml"
-    if not path.exists():
-        known = sorted(p.stem for p in HYPERPARAMS.glob("*.toml"))
-        raise ValueError(f"--env {env_id!r}: no hyperparameter file {path}; expected one of {known}")
-    with path.open("rb") as handle:
-        return tomllib.load(handle)
+def hyperparams_path(algo: str) -> Path:
+    """``hyperparams/<algo>.yml``."""
+    return HYPERPARAMS / f"{algo}.yml"
+
+
+def load_hyperparams(env_id: str, algo: str = DEFAULT_ALGO) -> dict[str, Any]:
+    """The entry of ``env_id`` in ``hyperparams/<algo>.yml``, as the zoo reads it;
+    ``ValueError`` naming the known ids if absent."""
+    import yaml  # only here: the rest of the configuration needs no YAML
+
+    path = hyperparams_path(algo)
+    with path.open() as handle:
+        entries = yaml.safe_load(handle)
+    if env_id not in entries:
+        raise ValueError(f"--env {env_id!r}: no entry in {path}; expected one of {sorted(entries)}")
+    return dict(entries[env_id])
+
+
+def literal_kwargs(text: str | dict[str, Any], key: str) -> dict[str, Any]:
+    """A zoo keyword string such as ``"dict(net_arch=[256, 256])"`` as a dict, read without
+    ``eval`` (literal values only; the zoo itself evaluates it as Python)."""
+    if isinstance(text, dict):
+        return dict(text)
+    try:
+        node = ast.parse(text, mode="eval").body
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
+            return {kw.arg: ast.literal_eval(kw.value) for kw in node.keywords if kw.arg is not None}
+        value = ast.literal_eval(node)
+        if isinstance(value, dict):
+            return value
+    except (SyntaxError, ValueError):
+        pass
+    raise ValueError(f"{key} = {text!r}: train.py reads dict(name=literal, ...) or a mapping of literals")
+
+
+def agent_features(wrappers: Any) -> tuple[str, str | None, float]:
+    """``(history, residual, residual_scale)`` from a zoo ``vec_env_wrapper`` value: our
+    residual wrapper (optional) then our history wrapper (optional), nothing else."""
+    items = [] if wrappers is None else wrappers if isinstance(wrappers, list) else [wrappers]
+    parsed = [(next(iter(w)), dict(next(iter(w.values())) or {})) if isinstance(w, dict) else (w, {}) for w in items]
+    names = [name for name, _ in parsed]
+    if names not in ([], [RESIDUAL_WRAPPER], [HISTORY_WRAPPER], [RESIDUAL_WRAPPER, HISTORY_WRAPPER]):
+        # train.py rebuilds the agent's view at evaluation (agents.trained.AgentPolicy), which
+        # knows these two features in this order only.
+        raise ValueError(f"vec_env_wrapper {names}: train.py knows {RESIDUAL_WRAPPER} then {HISTORY_WRAPPER}, each optional")
+    kwargs = dict(parsed)
+    residual = kwargs.get(RESIDUAL_WRAPPER)
+    if residual is not None and set(residual) - {"base", "scale"}:
+        raise ValueError(f"{RESIDUAL_WRAPPER} {residual}: expected the keyword arguments base and scale")
+    if kwargs.get(HISTORY_WRAPPER):
+        raise ValueError(f"{HISTORY_WRAPPER} {kwargs[HISTORY_WRAPPER]}: takes no keyword arguments")
+    if residual is not None and "base" not in residual:
+        raise ValueError(f"{RESIDUAL_WRAPPER}: expected a base controller (base: VSC3 + FF)")
+    return (
+        "ema" if HISTORY_WRAPPER in kwargs else "none",
+        None if residual is None else str(residual["base"]),
+        DEFAULT_RESIDUAL_SCALE if residual is None else float(residual.get("scale", DEFAULT_RESIDUAL_SCALE)),
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
     """``train.py``'s command line."""
     p = argparse.ArgumentParser(prog="train.py", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--env", default="SMATracking-v0", help="env id (default SMATracking-v0)")
-    p.add_argument("--algo", choices=ALGOS, help="algorithm (default: the hyperparameter file's default_algo)")
+    p.add_argument("--algo", choices=ALGOS, default=DEFAULT_ALGO, help=f"algorithm: reads hyperparams/<algo>.yml (default {DEFAULT_ALGO})")
     p.add_argument("--timesteps", type=int, help="total environment steps (default: from the hyperparameter file)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument(
+        "--eval-freq",
+        type=int,
+        help=f"environment steps (over all envs) between validation evaluations (default {EVAL_FREQ['sac']} for SAC, "
+        f"{EVAL_FREQ['ppo']} for PPO), as RL Zoo's --eval-freq",
+    )
     p.add_argument("--n-envs", type=int, help="parallel envs in the native vector env (default: from the file)")
     p.add_argument("--frame-stack", type=int, help="observations stacked as the agent's history (default: from the file)")
     p.add_argument("--history", choices=HISTORIES, help="history features (agents/history.py; default: from the file)")
@@ -102,28 +173,33 @@ class RunConfig:
 
     @classmethod
     def from_args(cls, args: argparse.Namespace) -> RunConfig:
-        """The hyperparameter file's table for the algorithm, overridden by the options, checked."""
-        hp = load_hyperparams(args.env)
-        algo = args.algo or hp.get("default_algo", "sac")
-        if algo not in hp:
-            raise ValueError(f"--algo {algo!r}: hyperparams/{args.env}.toml has no [{algo}] table")
-        table = dict(hp[algo])
+        """The hyperparameter file's entry for the env, overridden by the options, checked."""
+        if args.env in NOT_FOR_TRAIN_PY:
+            raise ValueError(f"--env {args.env}: {NOT_FOR_TRAIN_PY[args.env]}")
+        algo = args.algo or DEFAULT_ALGO
+        table = load_hyperparams(args.env, algo)
+        refused = sorted(set(table) & set(_ZOO_ONLY_KEYS))
+        if refused:
+            raise ValueError(f"{hyperparams_path(algo).name} [{args.env}]: train.py does not implement {refused} (RL Zoo does)")
         model_kwargs = {k: v for k, v in table.items() if k not in _RUN_KEYS}
+        if "policy_kwargs" in model_kwargs:
+            model_kwargs["policy_kwargs"] = literal_kwargs(model_kwargs["policy_kwargs"], "policy_kwargs")
+        history, file_residual, residual_scale = agent_features(table.get("vec_env_wrapper"))
         timesteps = int(table["n_timesteps"] if args.timesteps is None else args.timesteps)
-        eval_freq = int(table.get("eval_freq", DEFAULT_EVAL_FREQ))
+        eval_freq = EVAL_FREQ[algo] if args.eval_freq is None else args.eval_freq
         if args.quick:
             timesteps, eval_freq = QUICK_TIMESTEPS, 500
             model_kwargs.update({"learning_starts": 200, "buffer_size": 10_000} if algo == "sac" else {"n_steps": 64, "batch_size": 64})
-        residual = (None if args.residual == "none" else args.residual) if args.residual else table.get("residual")
+        residual = (None if args.residual == "none" else args.residual) if args.residual else file_residual
         run = cls(
             env_id=args.env,
             algo=algo,
             timesteps=timesteps,
             n_envs=int(table.get("n_envs", 1) if args.n_envs is None else args.n_envs),
             frame_stack=int(table.get("frame_stack", 1) if args.frame_stack is None else args.frame_stack),
-            history=args.history or table.get("history", "none"),
+            history=args.history or history,
             residual=residual,
-            residual_scale=float(table.get("residual_scale", DEFAULT_RESIDUAL_SCALE)),
+            residual_scale=residual_scale,
             eval_freq=eval_freq,
             env_kwargs=dict(table.get("env_kwargs", {})),
             seed=args.seed,
@@ -140,7 +216,7 @@ class RunConfig:
         if self.seed < 0:
             raise ValueError(f"--seed {self.seed}: expected an integer >= 0 (numpy and torch seeds are unsigned)")
         check_device(self.device)
-        for name in ("timesteps", "n_envs", "frame_stack", "threads"):
+        for name in ("timesteps", "n_envs", "frame_stack", "threads", "eval_freq"):
             if getattr(self, name) < 1:
                 raise ValueError(f"--{name.replace('_', '-')} = {getattr(self, name)}: expected an integer >= 1")
         if self.frame_stack > 1 and (self.history != "none" or self.residual is not None):

@@ -13,10 +13,17 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecEnvWrapper, VecFrameStack, VecMonitor
+from stable_baselines3.common.vec_env import (
+    DummyVecEnv,
+    VecEnv,
+    VecEnvWrapper,
+    VecFrameStack,
+    VecMonitor,
+)
 
 import sma_gym  # noqa: F401  (registers the ids)
 from agents.history import HistoryFeatures
+from agents.policies import env_attr
 from agents.residual import ResidualStep
 from agents.training.config import RunConfig
 from sma_gym.envs import references as refs
@@ -28,9 +35,14 @@ VALIDATION_SEED = 10_000
 
 
 class ResidualVecEnv(VecEnvWrapper):
-    """SB3 VecEnv wrapper (raw sma_gym observations): the agent acts as a residual."""
+    """SB3 VecEnv wrapper (raw sma_gym observations): the agent acts as a residual.
 
-    def __init__(self, venv: VecEnv, base: str, scale: float):
+    ``base``: the label of the controller whose duty the agent corrects (``"VSC3 + FF"``);
+    ``scale``: the largest correction, as a fraction of full duty. RL Zoo's
+    ``vec_env_wrapper`` calls it as ``ResidualVecEnv(venv, base=..., scale=...)``.
+    """
+
+    def __init__(self, venv: VecEnv, base: str, scale: float = 0.5):
         self.residual = ResidualStep(venv, base, scale)
         super().__init__(venv, observation_space=ResidualStep.observation_space(venv.observation_space))
 
@@ -53,9 +65,16 @@ class ResidualVecEnv(VecEnvWrapper):
 
 
 class HistoryVecEnv(VecEnvWrapper):
-    """SB3 VecEnv wrapper appending :class:`HistoryFeatures` to the observations."""
+    """SB3 VecEnv wrapper appending :class:`HistoryFeatures` to the observations.
 
-    def __init__(self, venv: VecEnv, history: HistoryFeatures):
+    Without ``history`` the features are built for ``venv``'s envs (their feature names
+    and control period): the form RL Zoo's ``vec_env_wrapper`` calls,
+    ``HistoryVecEnv(venv)``.
+    """
+
+    def __init__(self, venv: VecEnv, history: HistoryFeatures | None = None):
+        if history is None:
+            history = HistoryFeatures(venv.num_envs, tuple(env_attr(venv, "feature_names")), float(env_attr(venv, "control_period_s")))
         if history.n != venv.num_envs:
             raise ValueError(f"history features for {history.n} envs: expected {venv.num_envs} (the vector env's num_envs)")
         self.history = history

@@ -14,11 +14,20 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback, EvalCallback
+from stable_baselines3.common.callbacks import (
+    BaseCallback,
+    CallbackList,
+    CheckpointCallback,
+    EvalCallback,
+)
 
 from agents.trained import save_policy
 from agents.training.config import RunConfig
-from agents.training.envs import make_training_env, make_validation_env, validation_references
+from agents.training.envs import (
+    make_training_env,
+    make_validation_env,
+    validation_references,
+)
 
 PROGRESS_EVERY_S = 60.0
 """Seconds between progress lines when there is no terminal for a bar."""
