@@ -3,6 +3,7 @@
     python train.py                        # the default: SMATracking-v0, algorithm from hyperparams/
     python train.py --env SMARobust-v0 --algo ppo --timesteps 500000 --n-envs 16 --out runs/robust
     python train.py --quick                # tiny budget, for smoke tests
+    python train.py --seeds 5 --workers 2  # five seeds in parallel, goals over seeds (seeds.md)
 
 ``train.py`` (at the top of the repository) is a shell over this package:
 
@@ -14,6 +15,8 @@
 * :mod:`agents.training.learn`: the stable-baselines3 loop, checkpoints, best model, progress;
 * :mod:`agents.training.compare`: the agent beside the report's controllers, and the goals;
 * :mod:`agents.training.cli`: ``main(argv)``, what ``train.py`` runs.
+* :mod:`agents.training.sweep`: ``train.py --seeds N``, the same configuration over seeds in
+  parallel processes, every goal as an interquartile mean with a bootstrap interval.
 
 By default the agent is a residual on the report's controller (``agents/residual.py``: it
 corrects VSC3 + FF's duty, or the self-sensing PID's without a position sensor) and sees

@@ -137,6 +137,13 @@ def build_parser() -> argparse.ArgumentParser:
         "pool of every core thrashes when anything else runs on the machine)",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar or progress lines")
+    p.add_argument(
+        "--seeds",
+        type=int,
+        help="train N seeds (--seed .. --seed+N-1) of this configuration in parallel processes, each in <out>/seed-<s>/, "
+        "and write every goal over the seeds (interquartile mean, 95 %% bootstrap interval) to <out>/seeds.md and seeds.json",
+    )
+    p.add_argument("--workers", type=int, help="with --seeds: runs at a time (default min(N, cores))")
     return p
 
 

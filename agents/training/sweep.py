@@ -1,0 +1,223 @@
+"""Results over seeds: ``train.py --seeds N`` (or ``python -m agents.training.sweep``).
+
+One seed is an anecdote. The sweep runs the same configuration with seeds ``--seed`` ..
+``--seed + N - 1``, each as an ordinary ``train.py`` run in its own process and its own
+folder (``<out>/seed-<s>/``, the single-run code path unchanged; its output in
+``<out>/logs/seed-<s>.log``), ``--workers`` at a time. It then reports every goal of
+:data:`agents.training.compare.GOALS` over the seeds the rliable way (Agarwal et al.,
+"Deep RL at the edge of the statistical precipice", 2021): the interquartile mean (the
+mean of the middle 50 % of the seeds, :func:`iqm`) with a 95 % percentile bootstrap
+interval over seeds (:func:`bootstrap_ci`; with one task per goal the stratified
+bootstrap is the plain bootstrap over runs), and how many seeds met the goal. Written to
+``<out>/seeds.md`` and ``<out>/seeds.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.training.config import ROOT, RunConfig, build_parser
+
+BOOTSTRAP_RESAMPLES = 2_000
+BOOTSTRAP_SEED = 0
+CONFIDENCE = 0.95
+SWEEP_OUTPUTS = ("seeds.md", "seeds.json", "logs")
+"""What a sweep writes besides its ``seed-<s>`` folders (deleted first by ``--overwrite``)."""
+_NOT_PER_SEED = {"help", "seeds", "workers", "seed", "out", "overwrite", "no_progress"}
+"""Options of the sweep itself, not passed on to each seed's run."""
+
+
+def iqm(values: Any, axis: int | None = None) -> Any:
+    """Interquartile mean: the mean of the middle 50 % (25 % trimmed from each end, as
+    rliable's ``metrics.aggregate_iqm``, i.e. ``scipy.stats.trim_mean(x, 0.25)``)."""
+    from scipy.stats import trim_mean
+
+    return trim_mean(np.asarray(values, dtype=float), 0.25, axis=axis)
+
+
+def bootstrap_ci(
+    values: Any, statistic: Any = iqm, resamples: int = BOOTSTRAP_RESAMPLES, confidence: float = CONFIDENCE, seed: int = BOOTSTRAP_SEED
+) -> tuple[float, float]:
+    """Percentile bootstrap interval of ``statistic`` over runs (seeds), reproducible by
+    ``seed``: the runs are resampled with replacement ``resamples`` times."""
+    x = np.asarray(values, dtype=float)
+    if x.ndim != 1 or len(x) == 0:
+        raise ValueError(f"bootstrap_ci: expected a non-empty 1-d array of per-seed values, got shape {x.shape}")
+    rng = np.random.default_rng(seed)
+    samples = x[rng.integers(0, len(x), size=(resamples, len(x)))]
+    stats = statistic(samples, axis=1)
+    tail = 100 * (1 - confidence) / 2
+    lo, hi = np.percentile(stats, [tail, 100 - tail])
+    return float(lo), float(hi)
+
+
+def summarise_seeds(goals_by_seed: dict[int, dict[str, dict[str, Any]]], resamples: int = BOOTSTRAP_RESAMPLES) -> dict[str, Any]:
+    """Per goal: each figure (``agent_mm``, the baseline's) as per-seed values, IQM and
+    95 % interval, and how many seeds met the goal. ``goals_by_seed``: seed -> the
+    ``goals`` of that run's ``goals.json``."""
+    seeds = sorted(goals_by_seed)
+    names = list(dict.fromkeys(name for s in seeds for name in goals_by_seed[s]))
+    out: dict[str, Any] = {}
+    for name in names:
+        runs = [goals_by_seed[s][name] for s in seeds if name in goals_by_seed[s]]
+        figures = [k for k in runs[0] if k != "met"]
+        entry: dict[str, Any] = {}
+        for key in figures:
+            values = [float(r[key]) for r in runs]
+            entry[key] = {"values": values, "iqm": float(iqm(values)), "ci95": list(bootstrap_ci(values, resamples=resamples))}
+        entry["met"] = sum(bool(r["met"]) for r in runs)
+        entry["seeds"] = len(runs)
+        out[name] = entry
+    return out
+
+
+def seeds_table(run: RunConfig, seeds: list[int], summary: dict[str, Any], failed: list[int], elapsed_s: float, workers: int) -> str:
+    """``seeds.md``: one row per goal, IQM [95 % interval] of the agent and the baseline."""
+    budget = f"{run.timesteps} steps{' (--quick)' if run.quick else ''}, {run.n_envs} envs"
+    lines = [
+        f"# {run.algo.upper()} on {run.env_id} over {len(seeds)} seeds",
+        "",
+        f"Seeds {', '.join(map(str, seeds))}; {budget} each; {workers} at a time, {elapsed_s / 60:.1f} min in all.",
+        (
+            f"Interquartile mean over seeds [95 % percentile bootstrap interval, {BOOTSTRAP_RESAMPLES} resamples]; "
+            "each seed's figure is its results.md's (worst case over the harness's noise seeds), in mm."
+        ),
+        "",
+        "| goal | agent | baseline | met |",
+        "|---|---|---|---|",
+    ]
+
+    def cell(figure: dict[str, Any]) -> str:
+        lo, hi = figure["ci95"]
+        return f"{figure['iqm']:.3f} [{lo:.3f}, {hi:.3f}]"
+
+    for name, entry in summary.items():
+        baseline = next(k for k in entry if k not in ("agent_mm", "met", "seeds"))
+        lines.append(f"| {name} | {cell(entry['agent_mm'])} | {cell(entry[baseline])} ({baseline.removesuffix('_mm')}) | {entry['met']}/{entry['seeds']} |")
+    if failed:
+        lines += ["", f"Failed seeds (see logs/): {', '.join(map(str, failed))}; the table is over the others."]
+    return "\n".join(lines) + "\n"
+
+
+def seed_argv(parser: argparse.ArgumentParser, args: argparse.Namespace, seed: int, out: Path) -> list[str]:
+    """``train.py`` options of one seed's run: the sweep's own options replaced by
+    ``--seed``, ``--out`` and ``--no-progress``, every other option passed on as given."""
+    argv: list[str] = []
+    for action in parser._actions:
+        if action.dest in _NOT_PER_SEED or not action.option_strings:
+            continue
+        value = getattr(args, action.dest, None)
+        if value is None or value is False or (value == action.default and action.default is not None):
+            continue
+        flag = action.option_strings[-1]
+        argv += [flag] if value is True else [flag, str(value)]
+    return [*argv, "--seed", str(seed), "--out", str(out), "--no-progress"]
+
+
+def seed_command(argv: list[str]) -> list[str]:
+    """The process of one seed's run: ``train.py``'s command in a fresh interpreter."""
+    return [sys.executable, "-m", "agents.training", *argv]
+
+
+def _run_seed_process(argv: list[str], log: Path, threads: int) -> int:
+    """One seed's run as a child process, its output in ``log``; the exit code."""
+    env = dict(os.environ)
+    # One thread per run: the runs are the parallelism (numba and BLAS pools would
+    # oversubscribe the cores the other runs use).
+    for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+        env.setdefault(name, str(threads))
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
+    with log.open("w") as handle:
+        return subprocess.run(seed_command(argv), stdout=handle, stderr=subprocess.STDOUT, env=env, check=False).returncode
+
+
+def run_seed(options: list[str], seed: int, out: str | Path) -> dict[str, Any]:
+    """Train one seed in this process (``train.py`` with ``options``, ``--seed`` and
+    ``--out``) and return its goals (``goals.json``'s ``goals``): the function a cluster
+    engine (README "Training", Ray Tune) calls once per seed."""
+    from agents.training.cli import main
+
+    if main([*options, "--seed", str(seed), "--out", str(out), "--no-progress"]) != 0:
+        raise RuntimeError(f"train.py {options} --seed {seed}: failed (see its error above)")
+    return json.loads((Path(out) / "goals.json").read_text())["goals"]
+
+
+def read_goals(folder: Path) -> dict[str, dict[str, Any]]:
+    """The goals a finished run wrote to ``folder/goals.json``."""
+    return json.loads((folder / "goals.json").read_text())["goals"]
+
+
+def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int]:
+    """Run ``args.seeds`` seeds ``args.workers`` at a time into ``out``; write ``seeds.md``
+    and ``seeds.json``; ``(table, number of failed seeds)``."""
+    from sma_gym._io import write_json, write_text
+
+    parser = build_parser()
+    seeds = [run.seed + k for k in range(args.seeds)]
+    (out / "logs").mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+
+    def one(seed: int) -> int:
+        code = _run_seed_process(seed_argv(parser, args, seed, out / f"seed-{seed}"), out / "logs" / f"seed-{seed}.log", run.threads)
+        print(f"train.py: seed {seed} {'done' if code == 0 else f'FAILED (exit {code}, see logs/seed-{seed}.log)'}", flush=True)
+        return code
+
+    # Threads only wait on the child processes, which do the work.
+    with ThreadPoolExecutor(max_workers=args.workers) as pool:
+        codes = dict(zip(seeds, pool.map(one, seeds), strict=True))
+    elapsed = time.perf_counter() - started
+    failed = [s for s, code in codes.items() if code != 0]
+    done = {s: read_goals(out / f"seed-{s}") for s in seeds if s not in failed}
+    summary = summarise_seeds(done) if done else {}
+    table = seeds_table(run, seeds, summary, failed, elapsed, args.workers)
+    write_text(out / "seeds.md", table)
+    write_json(
+        out / "seeds.json",
+        {
+            "config": {**run.as_dict(), "seed": None},
+            "seeds": seeds,
+            "failed": failed,
+            "workers": args.workers,
+            "elapsed_s": elapsed,
+            "statistic": "interquartile mean (scipy.stats.trim_mean, 0.25)",
+            "interval": {"method": "percentile bootstrap over seeds", "confidence": CONFIDENCE, "resamples": BOOTSTRAP_RESAMPLES, "seed": BOOTSTRAP_SEED},
+            "goals": summary,
+        },
+        default=str,
+    )
+    return table, len(failed)
+
+
+def prepare_sweep_out(out: Path) -> None:
+    """Delete a previous sweep's outputs from ``out`` (``--overwrite``)."""
+    import shutil
+
+    for path in [*(out / name for name in SWEEP_OUTPUTS), *out.glob("seed-*")]:
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        elif path.exists() or path.is_symlink():
+            path.unlink()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m agents.training.sweep``: ``train.py`` with ``--seeds`` (default 5)."""
+    from agents.training.cli import main as train_main
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not any(a == "--seeds" or a.startswith("--seeds=") for a in argv):
+        argv = ["--seeds", "5", *argv]
+    return train_main(argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

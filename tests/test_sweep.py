@@ -1,0 +1,98 @@
+"""Results over seeds (``train.py --seeds N``): the interquartile mean, its bootstrap
+interval, the per-seed command lines, and a whole sweep with a stand-in for training."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+import pytest
+
+from agents.training import sweep as sweep_module
+from agents.training.cli import main
+from agents.training.config import build_parser, parse_args
+from agents.training.sweep import bootstrap_ci, iqm, seed_argv, summarise_seeds
+
+
+def test_iqm_is_the_mean_of_the_middle_half():
+    assert iqm([1, 2, 3, 4, 5, 6, 7, 8]) == pytest.approx(4.5)  # mean of 3, 4, 5, 6
+    assert iqm([1, 2, 3, 100]) == pytest.approx(2.5)  # an outlier seed does not move it
+    assert iqm([0.0, 1.0, 2.0, 3.0, 50.0]) == pytest.approx(2.0)  # five seeds: middle three
+    assert iqm([7.0]) == 7.0
+    np.testing.assert_allclose(iqm(np.array([[1, 2, 3, 100], [4, 4, 4, 4]]), axis=1), [2.5, 4.0])
+
+
+def test_bootstrap_interval_is_reproducible_and_brackets_the_iqm():
+    assert bootstrap_ci([3.0, 3.0, 3.0, 3.0, 3.0]) == (3.0, 3.0)
+    values = [0.52, 0.61, 0.55, 0.70, 0.58]
+    lo, hi = bootstrap_ci(values)
+    assert lo <= iqm(values) <= hi and min(values) <= lo < hi <= max(values)
+    assert bootstrap_ci(values) == (lo, hi)  # seeded
+    # Known inputs: two values, the IQM of a resample is the mean of {a, b} drawn with
+    # replacement, so the interval spans the two values' extremes.
+    assert bootstrap_ci([0.0, 1.0]) == (0.0, 1.0)
+    with pytest.raises(ValueError, match="non-empty"):
+        bootstrap_ci([])
+
+
+def test_summary_counts_seeds_that_met_each_goal():
+    def goals(agent, met):
+        return {"RMS step below every baseline": {"agent_mm": agent, "best_baseline_mm": 1.0, "met": met}}
+
+    summary = summarise_seeds({0: goals(0.5, True), 1: goals(0.9, True), 2: goals(1.2, False)})
+    entry = summary["RMS step below every baseline"]
+    assert entry["met"] == 2 and entry["seeds"] == 3
+    assert entry["agent_mm"]["values"] == [0.5, 0.9, 1.2] and entry["agent_mm"]["iqm"] == pytest.approx(2.6 / 3)  # three seeds: nothing trimmed
+    assert entry["best_baseline_mm"]["ci95"] == [1.0, 1.0]
+
+
+def test_each_seed_runs_train_py_with_the_same_options_and_its_own_seed_and_folder(tmp_path):
+    parser = build_parser()
+    args = parse_args(["--seeds", "3", "--workers", "2", "--quick", "--residual", "none", "--timesteps", "900", "--seed", "4"])
+    argv = seed_argv(parser, args, 5, tmp_path / "seed-5")
+    assert argv == ["--timesteps", "900", "--residual", "none", "--quick", "--seed", "5", "--out", str(tmp_path / "seed-5"), "--no-progress"]
+    # What a seed's process would run is an ordinary train.py configuration.
+    assert parse_args(argv).seed == 5 and parse_args(argv).seeds is None
+
+
+def test_bad_sweep_options_exit_2(capsys):
+    assert main(["--seeds", "0"]) == 2 and "--seeds" in capsys.readouterr().err
+    assert main(["--seeds", "2", "--workers", "0"]) == 2 and "--workers" in capsys.readouterr().err
+    assert main(["--workers", "2"]) == 2 and "--seeds" in capsys.readouterr().err
+
+
+FAKE_RUN = """
+import json, sys
+from pathlib import Path
+argv = sys.argv[1:]
+seed, out = int(argv[argv.index("--seed") + 1]), Path(argv[argv.index("--out") + 1])
+if seed == 13:
+    sys.exit(3)
+out.mkdir(parents=True)
+goals = {"RMS step below every baseline": {"agent_mm": 0.5 + 0.1 * seed, "best_baseline_mm": 1.0, "met": seed < 12}}
+(out / "goals.json").write_text(json.dumps({"goals": goals}))
+print("trained", seed)
+"""
+
+
+def test_a_sweep_runs_every_seed_in_its_own_folder_and_writes_the_table(tmp_path, monkeypatch, capsys):
+    """The sweep's machinery with a stand-in for training (each seed's real run is train.py's
+    single-run path, tested in test_train.py)."""
+    monkeypatch.setattr(sweep_module, "seed_command", lambda argv: [sys.executable, "-c", FAKE_RUN, *argv])
+    out = tmp_path / "sweep"
+    assert main(["--seeds", "4", "--seed", "10", "--workers", "2", "--quick", "--out", str(out)]) == 1  # seed 13 fails
+    printed = capsys.readouterr().out
+    assert "seed 13 FAILED" in printed and f"sweep folder: {out}" in printed
+    assert sorted(p.name for p in out.glob("seed-*")) == ["seed-10", "seed-11", "seed-12"]
+    assert (out / "logs" / "seed-10.log").read_text().strip() == "trained 10"
+    data = json.loads((out / "seeds.json").read_text())
+    assert data["seeds"] == [10, 11, 12, 13] and data["failed"] == [13]
+    goal = data["goals"]["RMS step below every baseline"]
+    assert goal["met"] == 2 and goal["seeds"] == 3 and goal["agent_mm"]["iqm"] == pytest.approx(1.6)
+    table = (out / "seeds.md").read_text()
+    assert "| RMS step below every baseline | 1.600 [" in table and "| 2/3 |" in table and "Failed seeds" in table
+    # A sweep never mixes with another's files: refused, then replaced with --overwrite.
+    assert main(["--seeds", "2", "--quick", "--out", str(out)]) == 2
+    assert main(["--seeds", "2", "--quick", "--out", str(out), "--overwrite"]) == 0
+    assert sorted(p.name for p in out.glob("seed-*")) == ["seed-0", "seed-1"]
