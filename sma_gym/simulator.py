@@ -31,7 +31,7 @@ from sma_gym.electrical.sensors import ABBE_FORMS, LAG_ORDERS
 from sma_gym.model import ModelConfig, ModelSpec, load_model
 from sma_gym.physics.mechanics import FRICTION_FORMS
 from sma_gym.physics.resistance import wire_resistance
-from sma_gym.physics.thermal import CONVECTION_FORMS, LATENT_COOLING_FACTORS
+from sma_gym.physics.thermal import CONVECTION_FORMS, LATENT_COOLING_FACTORS, SURROUNDINGS_FORMS
 from sma_gym.physics.transformation import hysteron_nodes
 
 PWM_MODES = ("averaged", "resolved")
@@ -136,6 +136,7 @@ def pack_params(
     row[L.P_F_COULOMB] = fx.value("coulomb_friction", "force_n")
     row[L.P_SURR_GAIN] = fx.value("warm_surroundings", "gain_k_j")
     row[L.P_SURR_TAU] = fx.value("warm_surroundings", "time_constant_s")
+    row[L.P_SURR_FORM] = SURROUNDINGS_FORMS[fx.form("warm_surroundings")]
     row[L.P_FRICTION_FORM] = FRICTION_FORMS[fx.form("coulomb_friction")]
 
     row[L.P_V_SUPPLY] = d.supply_voltage_v

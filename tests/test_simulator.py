@@ -350,6 +350,12 @@ def test_warm_surroundings_slow_the_cooling_after_a_long_heating_and_relax_to_th
     assert 0.0 < rise_end < 0.5 * (b["surroundings_temperature_c"][19999, 0] - ambient)
     short = Simulator(warm).run(short_heat, record=rec)
     assert short["surroundings_temperature_c"].max() < b["surroundings_temperature_c"].max()
+    # The 'electrical' form (synthetic data only) warms them with the electrical power: from
+    # the first pulse, and not at all once the current is off.
+    electrical = Simulator(base.with_effect("warm_surroundings", {"gain_k_j": 0.3, "time_constant_s": 20.0}, "electrical"))
+    c = electrical.run(long_heat, record=rec)["surroundings_temperature_c"][:, 0]
+    assert c[99] - ambient > b["surroundings_temperature_c"][99, 0] - ambient > 0.0
+    assert np.all(np.diff(c[20001:]) < 0.0)
 
 
 def test_every_effect_at_its_off_value_changes_nothing_bit_for_bit():
@@ -491,9 +497,10 @@ def test_every_declared_effect_form_has_a_meaning_in_the_physics():
     from sma_gym.electrical.pwm import RISE_FORMS, SAG_FORMS
     from sma_gym.electrical.sensors import ABBE_FORMS, LAG_ORDERS
     from sma_gym.physics.mechanics import FRICTION_FORMS
-    from sma_gym.physics.thermal import CONVECTION_FORMS, LATENT_COOLING_FACTORS
+    from sma_gym.physics.thermal import CONVECTION_FORMS, LATENT_COOLING_FACTORS, SURROUNDINGS_FORMS
 
     tables = {
+        "warm_surroundings": SURROUNDINGS_FORMS,
         "pulse_settling": RISE_FORMS,
         "supply_sag": SAG_FORMS,
         "abbe_offset": ABBE_FORMS,

@@ -90,6 +90,7 @@ from sma_gym.core.layout import (
     P_SAG_I_REF,
     P_SIGMA0,
     P_SURFACE,
+    P_SURR_FORM,
     P_SURR_GAIN,
     P_SURR_TAU,
     P_T_AMB,
@@ -141,7 +142,12 @@ from sma_gym.electrical.sensors import (
 )
 from sma_gym.physics.mechanics import WireConstants, kinetic_friction, solve_step, static_friction
 from sma_gym.physics.resistance import wire_resistance
-from sma_gym.physics.thermal import convection_coefficient, exponential_euler
+from sma_gym.physics.thermal import (
+    SURROUNDINGS_ELECTRICAL,
+    convection_coefficient,
+    exponential_euler,
+    surroundings_temperature,
+)
 
 MIN_SUBSTEP_S = 1e-9
 """Slivers shorter than this (rounding at PWM edges) advance the clock without a step."""
@@ -202,10 +208,8 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
     e_conv = energy_j - heat_cap * (t_pred - t0)
     gain = params[i, P_SURR_GAIN]
     if gain > 0.0:
-        # The surroundings take up the convected heat and relax to the ambient (exact for a
-        # constant source over the sub-step, so any sub-step length is stable).
-        decay = math.exp(-h / params[i, P_SURR_TAU])
-        state[i, S_T_SURR] = t_amb + (t_surr - t_amb) * decay + gain * e_conv * params[i, P_SURR_TAU] / h * (1.0 - decay)
+        source = energy_j if params[i, P_SURR_FORM] == SURROUNDINGS_ELECTRICAL else e_conv
+        state[i, S_T_SURR] = surroundings_temperature(t_surr, t_amb, gain, params[i, P_SURR_TAU], source, h)
 
     # Backward-Euler mechanics: k_ext x1 = b_ext + A sigma(x1, z).
     mass = params[i, P_MASS]

@@ -203,6 +203,7 @@ P_R_COLD = _NODE_END + 39  # cold resistance [ohm] (Wire.cold_resistance_ohm)
 # warm_surroundings effect (0 gain: the wire convects to the ambient temperature)
 P_SURR_GAIN = _NODE_END + 40  # surroundings' warming per joule the wire convects [K/J]
 P_SURR_TAU = _NODE_END + 41  # surroundings' relaxation time to the ambient [s]
-N_PARAMS = P_SURR_TAU + 1
+P_SURR_FORM = _NODE_END + 42  # physics.thermal.SURROUNDINGS_FORMS
+N_PARAMS = P_SURR_FORM + 1
 
 PARAM_FIELDS = {name[2:].lower(): index for name, index in list(globals().items()) if name.startswith("P_")}

@@ -1,6 +1,6 @@
 """Named, optional model extensions ("effects").
 
-Each effect is a physical term the report's model lacks or is unsure of (MODEL.md §5). It
+Each effect is a physical term the report's model lacks or is unsure of (docs/model.md §11). It
 has a name, parameters with units, bounds and an *off* value, and is off by default: a
 model with every effect at its off value is the report's model, bit for bit.
 
@@ -133,6 +133,7 @@ EFFECTS: dict[str, Effect] = {
                 _p("gain_k_j", "K/J", 0.0, 0.0, 1.0, 0.1, "warming of the surroundings per joule the wire convects"),
                 _p("time_constant_s", "s", 30.0, 2.0, 300.0, 20.0, "time the surroundings take to relax to the ambient"),
             ),
+            forms=("default", "electrical"),
         ),
         Effect(
             name="coulomb_friction",

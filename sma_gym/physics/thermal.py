@@ -32,6 +32,23 @@ LATENT_COOLING_FACTORS = {"default": 1.0, "asymmetric": 0.7}
 """Latent heat released while cooling, as a fraction of that absorbed while heating, for
 each form of the ``latent_heat`` effect."""
 
+SURROUNDINGS_CONVECTED = 0
+"""warm_surroundings 'default': the surroundings take up the heat the wire convects."""
+SURROUNDINGS_ELECTRICAL = 1
+"""warm_surroundings 'electrical': they are warmed by the electrical power instead (contacts,
+clamps and driver heating with the current), a different shape for synthetic data."""
+SURROUNDINGS_FORMS = {"default": SURROUNDINGS_CONVECTED, "electrical": SURROUNDINGS_ELECTRICAL}
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def surroundings_temperature(t_surr, t_amb, gain_k_j, tau_s, source_j, h):
+    """Temperature of the surroundings after a sub-step of ``h`` [s] in which they took up
+    ``source_j`` [J] (warming ``gain_k_j`` [K/J]) while relaxing to ``t_amb`` with time
+    constant ``tau_s``: dT_s/dt = gain P - (T_s - T_amb) / tau, exact for a constant P, so
+    any sub-step length is stable."""
+    decay = math.exp(-h / tau_s)
+    return t_amb + (t_surr - t_amb) * decay + gain_k_j * source_j * tau_s / h * (1.0 - decay)
+
 
 @njit(cache=True, inline="always", error_model="numpy")
 def convection_coefficient(t_c, h0, h1, h2, t_amb, form, power_scale):
