@@ -132,7 +132,7 @@ def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("files", nargs="+", help="measured traces to fit (CSV, see docs/diagnosis.md: measured data)")
     p.add_argument("--heldout", nargs="+", help="measured traces never used for fitting")
     p.add_argument("--out", required=True, help="folder for the report, plots, JSON and corrected_model.json")
-    p.add_argument("--model", default="standard", help="nominal model: a preset name or a model JSON file (default standard)")
+    p.add_argument("--model", default="standard", help="nominal model: a preset or twin name or a model JSON file (default standard)")
     p.add_argument("--effects", help="comma-separated subset of effects to consider (default: all)")
     p.add_argument(
         "--max-rounds",
@@ -166,8 +166,23 @@ def _synth_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace an existing file")
 
 
+def _warmup(args: argparse.Namespace) -> int:
+    from sma_gym.warmup import warm_up
+
+    done = warm_up()
+    where = f"cached in {done.cache_dir}" if done.cached else "not cached (no writable cache directory)"
+    print(f"compiled {len(done.paths)} paths in {done.seconds:.1f} s, {where}")
+    return 0
+
+
 BUILTIN_COMMANDS = (
     Command("bench", "simulator speed in actuator-steps/s (1 kHz control step)", _bench_arguments, _bench),
+    Command(
+        "warmup",
+        "compile (and cache, where possible) every compiled path now instead of at the first step",
+        lambda p: None,
+        _warmup,
+    ),
     Command(
         "diagnose",
         "find the effect the model is missing from measured traces, add it, show the gap shrink",

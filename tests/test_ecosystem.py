@@ -320,3 +320,19 @@ def test_blitted_frame_equals_a_fully_redrawn_one():
     blitted = env.render()
     env.unwrapped._renderer._plot._background = None  # forces a full redraw
     assert np.array_equal(blitted, env.render())
+
+
+def test_warmup_runs_every_compiled_path_and_says_where_the_cache_is(capsys):
+    """``sma-gym warmup`` (issue 15 item 7): every env id (and its vector env) and both PWM
+    modes are exercised, and the user is told whether and where the machine code is cached."""
+    from sma_gym.cli import main
+    from sma_gym.envs import ENV_IDS
+    from sma_gym.warmup import warm_up
+
+    done = warm_up()
+    assert set(ENV_IDS) <= set(done.paths)
+    assert "SMATracking-v0 (vector)" in done.paths and "Simulator(pwm_mode='resolved')" in done.paths
+    assert done.cached == bool(done.cache_dir)
+    assert main(["warmup"]) == 0
+    out = capsys.readouterr().out
+    assert f"compiled {len(done.paths)} paths" in out and ("cached in" in out or "not cached" in out)
