@@ -11,23 +11,73 @@ as correct when it names exactly the hidden effect, or "none" for clean data), t
 "effect" verdicts on clean data, and the median time to diagnose one 60 s trace at 1 kHz
 (goal: under 2 minutes on 2 cores). Goals: accuracy >= 90 %, no false effect on clean data.
 
-    python benchmarks/bench_diagnosis.py [--seeds 3] [--json]
+    python benchmarks/bench_diagnosis.py [--seeds 3] [--json] [--max-rounds 3]
+
+``--grid N`` runs instead a balanced fractional-factorial benchmark of N cases that the
+diagnosis was not tuned to (issue 12, "a benchmark that cannot be gamed by its own
+generator"). Every case draws, with a seeded RNG,
+
+* the generator: ours (``sma_gym.diagnosis.synth``) or the independent implementation of
+  the same physics in ``tests/independent_sma.py`` (another integrator, minor-loop law and
+  stress formulation; loaded by file path, it is test-only by design), alternating;
+* the truth: none or one effect of the library (in its alternative form with our generator;
+  the independent generator has its own forms and only the effects it supports). Clean
+  data is drawn twice as often as each effect: "clean data never gets an effect" is a goal
+  about every clean case, so it needs more than one or two of them;
+* the excitation of the fitted file (steps, ramps, sine, chirp, random) and a different
+  one for the held-out file;
+* the effect size, 0.3, 0.6, 1.0 or 1.5 times the typical value (the deviation from "off"
+  is scaled: a convection ``scale`` of 1.6 at 0.3x is 1.18);
+* the sample rate (1 kHz or 100 Hz) and the sensor set (all outputs, or position only).
+
+Each factor is drawn as a sequence of shuffled complete blocks of its levels, per generator,
+so every factor is balanced to within one case in any prefix of the grid, and a grid of N
+cases starts with the grid of M < N cases (a run cut short by ``--budget-min`` is a smaller
+balanced grid). The nominal parameters are perturbed by 5 % as in the default mode.
+
+An answer is *right* when the verdict names exactly the hidden effect ("none" for clean
+data); "ambiguous" naming the truth among its pair is not wrong, but not right either
+(counted apart); a *confident wrong name* is an "effect"/"effects" verdict naming an effect
+that was not hidden.
+
+    python benchmarks/bench_diagnosis.py --grid 24 [--seed 0] [--generator both]
+        [--max-rounds 3] [--budget-min 50] [--json] [--out grid.md]
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
+import math
 import statistics
+import subprocess
+import sys
 import time
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from functools import lru_cache
+from pathlib import Path
+from types import ModuleType
+from typing import Any
 
-from sma_gym.diagnosis.synth import SynthSpec, generate
-from sma_gym.diagnosis.workflow import diagnose
+import numpy as np
+
+from sma_gym.data.measured import MeasuredTrace
+from sma_gym.diagnosis.synth import EXCITATIONS, SynthSpec, generate, perturb
+from sma_gym.diagnosis.workflow import (
+    DEFAULT_MAX_ROUNDS,
+    NOISE_STOP,
+    Diagnosis,
+    diagnose,
+)
 from sma_gym.effects import EFFECTS
 from sma_gym.model import ModelConfig
 
 
-def case(effect: str | None, seed: int) -> tuple[str, float]:
+def case(effect: str | None, seed: int, max_rounds: int = DEFAULT_MAX_ROUNDS) -> tuple[str, float]:
+    """One case of the default benchmark: the verdict as a label, and the seconds it took."""
     form = "default"
     if effect is not None:
         forms = EFFECTS[effect].forms
@@ -36,26 +86,30 @@ def case(effect: str | None, seed: int) -> tuple[str, float]:
     fit, _ = generate(SynthSpec(model, effect=effect, form=form, excitation="steps", duration_s=60.0, perturb=0.05, seed=seed))
     held, _ = generate(SynthSpec(model, effect=effect, form=form, excitation="sine", duration_s=40.0, perturb=0.05, seed=seed))
     start = time.perf_counter()
-    result = diagnose([fit], [held], model)
+    result = diagnose([fit], [held], model, max_rounds=max_rounds)
     elapsed = time.perf_counter() - start
+    return answer_label(result), elapsed
+
+
+def answer_label(result: Diagnosis) -> str:
+    """The verdict as one confusion-matrix column label."""
     if result.verdict == "effect":
-        answer = str(result.effect)
-    elif result.verdict == "ambiguous":
-        answer = "ambiguous(" + "|".join(result.effect) + ")"
-    elif result.verdict == "effects":
-        answer = "effects(" + "+".join(result.effect) + ")"  # a hidden effect plus spurious ones
-    else:
-        answer = result.verdict
-    return answer, elapsed
+        return str(result.effect)
+    if result.verdict == "ambiguous":
+        return "ambiguous(" + "|".join(result.effect) + ")"
+    if result.verdict == "effects":
+        return "effects(" + "+".join(result.effect) + ")"  # a hidden effect plus spurious ones
+    return result.verdict
 
 
-def run(seeds: int) -> dict:
+def run(seeds: int, max_rounds: int = DEFAULT_MAX_ROUNDS) -> dict:
+    """The default benchmark: every truth for ``seeds`` seeds at fixed settings."""
     truths = ["none", *EFFECTS]
     rows: dict[str, list[str]] = {t: [] for t in truths}
     times = []
     for seed in range(seeds):
         for truth in truths:
-            answer, elapsed = case(None if truth == "none" else truth, 100 + seed)
+            answer, elapsed = case(None if truth == "none" else truth, 100 + seed, max_rounds)
             rows[truth].append(answer)
             times.append(elapsed)
             print(f"seed {seed} truth {truth:22s} -> {answer}  ({elapsed:.0f} s)", flush=True)
@@ -70,12 +124,495 @@ def run(seeds: int) -> dict:
     }
 
 
+# ------------------------------------------------------------------------------------------
+# --grid: the fractional-factorial benchmark (issue 12)
+# ------------------------------------------------------------------------------------------
+
+GENERATORS = ("ours", "independent")
+SIZES = (0.3, 0.6, 1.0, 1.5)
+"""Effect sizes as multiples of the typical value: from near the detection limit up."""
+SAMPLING = ((1000, "all"), (1000, "position"), (100, "all"), (100, "position"))
+"""(sample rate [Hz], sensor set) pairs, drawn as one balanced four-level factor."""
+CLEAN_REPEATS = 2
+"""Clean data appears this many times per block of truths (see the module docstring)."""
+FIT_DURATION_S = 60.0
+HELDOUT_DURATION_S = 40.0
+PERTURB = 0.05
+INDEPENDENT_PATH = Path(__file__).resolve().parent.parent / "tests" / "independent_sma.py"
+
+# Factor streams: each has its own RNG so that adding a factor never reshuffles the others.
+_TRUTH, _FIT_EXCITATION, _HELDOUT_SHIFT, _SIZE, _SAMPLING, _DATA_SEED = range(6)
+
+
+@lru_cache(maxsize=1)
+def independent_module() -> ModuleType:
+    """``tests/independent_sma.py``, loaded by file path (it stays out of the package)."""
+    spec = importlib.util.spec_from_file_location("independent_sma", INDEPENDENT_PATH)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"cannot load the independent generator from {INDEPENDENT_PATH}")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("independent_sma", module)  # numba's cache keys on the module name
+    spec.loader.exec_module(module)
+    return module
+
+
+def grid_truths(generator: str) -> tuple[str, ...]:
+    """The truths one block of ``generator``'s cases covers (clean data ``CLEAN_REPEATS`` times)."""
+    effects = tuple(EFFECTS) if generator == "ours" else tuple(independent_module().INDEPENDENT_EFFECTS)
+    return ("none",) * CLEAN_REPEATS + effects
+
+
+@dataclass(frozen=True)
+class GridCase:
+    """One drawn case of the grid: everything needed to regenerate its data."""
+
+    index: int
+    generator: str
+    truth: str
+    form: str
+    fit_excitation: str
+    heldout_excitation: str
+    size: float
+    sample_rate_hz: int
+    sensors: str
+    seed: int
+
+    def effect_values(self) -> dict[str, float]:
+        """The hidden effect's parameters: ``size`` times the typical deviation from off."""
+        if self.truth == "none":
+            return {}
+        off = EFFECTS[self.truth].off_values
+        if self.generator == "ours":
+            typical = {p.name: p.typical for p in EFFECTS[self.truth].parameters}
+        else:  # the independent generator's own typical values (e.g. no h1 term)
+            typical = independent_module().INDEPENDENT_EFFECTS[self.truth]
+        return {k: off[k] + self.size * (v - off[k]) for k, v in typical.items()}
+
+
+def _blocked(levels: Sequence[Any], count: int, rng: np.random.Generator) -> list[Any]:
+    """``count`` values: shuffled complete blocks of ``levels`` (balanced in every prefix)."""
+    out: list[Any] = []
+    while len(out) < count:
+        out.extend(levels[i] for i in rng.permutation(len(levels)))
+    return out[:count]
+
+
+def draw_grid(n: int, seed: int = 0, generators: Sequence[str] = GENERATORS) -> list[GridCase]:
+    """The first ``n`` cases of the grid for ``seed`` (no simulation; cheap and deterministic)."""
+    if n < 1:
+        raise ValueError(f"grid size = {n!r}: expected at least 1 case")
+    for g in generators:
+        if g not in GENERATORS:
+            raise ValueError(f"generator = {g!r}: expected one of {GENERATORS}")
+    per_gen = {g: sum(1 for i in range(n) if generators[i % len(generators)] == g) for g in generators}
+    streams: dict[str, dict[int, list[Any]]] = {}
+    for g, count in per_gen.items():
+        key = GENERATORS.index(g)  # a generator's draw does not depend on which others run
+
+        def stream(factor: int, levels: Sequence[Any], count: int = count, key: int = key) -> list[Any]:
+            return _blocked(levels, count, np.random.default_rng([seed, key, factor]))
+
+        streams[g] = {
+            _TRUTH: stream(_TRUTH, grid_truths(g)),
+            _FIT_EXCITATION: stream(_FIT_EXCITATION, EXCITATIONS),
+            # The held-out excitation is 1-4 places on from the fitted one: always different.
+            _HELDOUT_SHIFT: stream(_HELDOUT_SHIFT, range(1, len(EXCITATIONS))),
+            _SIZE: stream(_SIZE, SIZES),
+            _SAMPLING: stream(_SAMPLING, SAMPLING),
+            _DATA_SEED: list(np.random.default_rng([seed, key, _DATA_SEED]).integers(0, 2**31, size=count)),
+        }
+    cases = []
+    for i in range(n):
+        g = generators[i % len(generators)]
+        j = i // len(generators)
+        s = streams[g]
+        truth = s[_TRUTH][j]
+        forms = EFFECTS[truth].forms if truth != "none" else ("default",)
+        # Our generator hides the effect in its alternative form; the independent one has its own.
+        form = "independent" if g == "independent" and truth != "none" else (forms[1] if len(forms) > 1 else "default")
+        fit_exc = s[_FIT_EXCITATION][j]
+        held_exc = EXCITATIONS[(EXCITATIONS.index(fit_exc) + s[_HELDOUT_SHIFT][j]) % len(EXCITATIONS)]
+        rate, sensors = s[_SAMPLING][j]
+        cases.append(
+            GridCase(
+                index=i, generator=g, truth=truth, form=form, fit_excitation=fit_exc, heldout_excitation=held_exc,
+                size=0.0 if truth == "none" else float(s[_SIZE][j]), sample_rate_hz=int(rate), sensors=sensors,
+                seed=int(s[_DATA_SEED][j]),
+            )
+        )
+    return cases
+
+
+def grid_data(case: GridCase, nominal: ModelConfig) -> tuple[MeasuredTrace, MeasuredTrace]:
+    """The fitted and held-out traces of ``case`` (one actuator, two excitations)."""
+    effect = None if case.truth == "none" else case.truth
+    values = case.effect_values() or None
+    period = 1.0 / case.sample_rate_hz
+    electrical = case.sensors == "all"
+    if case.generator == "ours":
+        # One seed for both files: synth draws the perturbation first, so both files come
+        # from the same perturbed actuator (as in the default mode).
+        def ours(excitation: str, duration_s: float) -> MeasuredTrace:
+            spec = SynthSpec(
+                nominal, effect=effect, effect_values=values, form=case.form, excitation=excitation,
+                duration_s=duration_s, perturb=PERTURB, sample_period_s=period, electrical=electrical, seed=case.seed,
+            )
+            return generate(spec)[0]
+
+        return ours(case.fit_excitation, FIT_DURATION_S), ours(case.heldout_excitation, HELDOUT_DURATION_S)
+    ind = independent_module()
+    # The same nominal perturbation as ours (parameter values only, not our kernel).
+    actuator = perturb(nominal, PERTURB, np.random.default_rng(case.seed))[0].actuator
+
+    def independent(excitation: str, duration_s: float, seed: int) -> MeasuredTrace:
+        return ind.generate(
+            actuator, excitation=excitation, duration_s=duration_s, effect=effect, effect_values=values,
+            sample_period_s=period, electrical=electrical, seed=seed,
+        )[0]
+
+    return (
+        independent(case.fit_excitation, FIT_DURATION_S, case.seed),
+        independent(case.heldout_excitation, HELDOUT_DURATION_S, case.seed + 1),
+    )
+
+
+def classify(truth: str, verdict: str, named: Sequence[str]) -> str:
+    """right / ambiguous_with_truth / confident_wrong / miss for one answer.
+
+    ``named``: the effects the verdict names (found ones for effect(s), the pair for
+    ambiguous)."""
+    if verdict in ("effect", "effects"):
+        if any(name != truth for name in named):
+            return "confident_wrong"
+        return "right" if list(named) == [truth] else "confident_wrong"
+    if verdict == "none" and truth == "none":
+        return "right"
+    if verdict == "ambiguous" and truth in named:
+        return "ambiguous_with_truth"
+    return "miss"
+
+
+def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str, Any]:
+    """Generate, diagnose and score one grid case; an exception is recorded, not raised."""
+    record: dict[str, Any] = asdict(case) | {"effect_values": case.effect_values()}
+    t0 = time.perf_counter()
+    try:
+        fit, held = grid_data(case, nominal)
+        t1 = time.perf_counter()
+        result = diagnose([fit], [held], nominal, max_rounds=max_rounds)
+    except Exception as exc:  # noqa: BLE001 - a crash is a benchmark finding, the grid goes on
+        record.update(answer=f"error: {type(exc).__name__}: {exc}", verdict="error", category="miss", named=[],
+                      seconds_total=time.perf_counter() - t0, seconds_diagnose=math.nan)
+        return record
+    t2 = time.perf_counter()
+    if result.verdict in ("effect", "effects"):
+        named = list(result.effects_found)
+    elif result.verdict == "ambiguous":
+        named = list(result.effect)
+    else:
+        named = []
+    first = result.rounds[0] if result.rounds else {}
+    last = result.rounds[-1] if result.rounds else {}
+    record.update(
+        answer=answer_label(result),
+        verdict=result.verdict,
+        named=named,
+        category=classify(case.truth, result.verdict, named),
+        rounds=len(result.rounds),
+        round_verdicts=[r["verdict"] for r in result.rounds],
+        # Held-out normalised RMS (1 = the noise): model as given, nominal refit, final model.
+        heldout_as_given=first.get("as_given_heldout_normalised_rms"),
+        heldout_nominal_refit=first.get("nominal_refit_heldout_normalised_rms"),
+        heldout_final=last.get("heldout_normalised_rms"),
+        parameters_at_bounds=first.get("parameters_at_bounds", []),
+        position_rms_before_m=result.gap_before.get("heldout", {}).get("position"),
+        position_rms_after_m=result.gap_after.get("heldout", {}).get("position"),
+        noise=result.noise,
+        seconds_generate=t1 - t0,
+        seconds_diagnose=t2 - t1,
+        seconds_total=t2 - t0,
+    )
+    return record
+
+
+def _fraction(k: int, n: int) -> float | None:
+    return k / n if n else None
+
+
+def wilson(k: int, n: int, z: float = 1.96) -> list[float] | None:
+    """95 % Wilson score interval of a rate k/n: with tens of cases, a goal is only met or
+    missed beyond doubt when the interval lies on one side of it."""
+    if not n:
+        return None
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return [max(0.0, centre - half), min(1.0, centre + half)]
+
+
+def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Confusion matrices, accuracies, confident wrong names and clean-data outcomes."""
+    per_generator: dict[str, Any] = {}
+    for g in GENERATORS:
+        rs = [r for r in records if r["generator"] == g]
+        if not rs:
+            continue
+        truths = list(dict.fromkeys(grid_truths(g)))  # "none" once, then library order
+        confusion = {t: dict(Counter(r["answer"] for r in rs if r["truth"] == t)) for t in truths}
+        cats = Counter(r["category"] for r in rs)
+        effect_cases = [r for r in rs if r["truth"] != "none"]
+        clean = [r for r in rs if r["truth"] == "none"]
+        per_generator[g] = {
+            "cases": len(rs),
+            "confusion": confusion,
+            "right": cats["right"],
+            "ambiguous_with_truth": cats["ambiguous_with_truth"],
+            "confident_wrong": cats["confident_wrong"],
+            "miss": cats["miss"],
+            "accuracy": _fraction(cats["right"], len(rs)),
+            "accuracy_ci95": wilson(cats["right"], len(rs)),
+            "one_effect_accuracy": _fraction(sum(r["category"] == "right" for r in effect_cases), len(effect_cases)),
+            "clean_accuracy": _fraction(sum(r["category"] == "right" for r in clean), len(clean)),
+            "confident_wrong_rate": _fraction(cats["confident_wrong"], len(rs)),
+            "by_factor": _by_factor(rs),
+        }
+    clean = [r for r in records if r["truth"] == "none"]
+    named = [r for r in clean if r["verdict"] in ("effect", "effects", "ambiguous")]
+    unexplained = [r for r in clean if r["verdict"] == "unexplained"]
+    # "Unexplained" is only a fault when the refit itself reaches the noise.
+    unexplained_at_noise = [r for r in unexplained if (r.get("heldout_nominal_refit") or math.inf) <= NOISE_STOP]
+    times = [r["seconds_diagnose"] for r in records if not math.isnan(r["seconds_diagnose"])]
+    totals = [r["seconds_total"] for r in records]
+    wrong = sum(r["category"] == "confident_wrong" for r in records)
+    summary = {
+        "cases": len(records),
+        "per_generator": per_generator,
+        "confident_wrong": wrong,
+        "confident_wrong_rate": _fraction(wrong, len(records)),
+        "confident_wrong_rate_ci95": wilson(wrong, len(records)),
+        "clean_cases": len(clean),
+        "clean_named_an_effect": len(named),
+        "clean_effect_verdicts": sum(r["verdict"] in ("effect", "effects") for r in clean),
+        "clean_unexplained": len(unexplained),
+        "clean_unexplained_with_refit_at_noise": len(unexplained_at_noise),
+        "clean_outcomes": [
+            {k: r[k] for k in ("index", "generator", "answer", "heldout_nominal_refit", "fit_excitation", "sample_rate_hz", "sensors") if k in r}
+            for r in clean
+        ],
+        "median_seconds_diagnose": statistics.median(times) if times else None,
+        "median_seconds_per_case": statistics.median(totals) if totals else None,
+        "errors": sum(r["verdict"] == "error" for r in records),
+    }
+    summary["goals"] = _goals(summary)
+    return summary
+
+
+def _by_factor(rs: Sequence[dict[str, Any]]) -> dict[str, dict[str, str]]:
+    """right / cases for each level of each factor (where a systematic failure shows)."""
+    out: dict[str, dict[str, str]] = {}
+    for factor in ("fit_excitation", "heldout_excitation", "size", "sample_rate_hz", "sensors"):
+        levels: dict[str, list[int]] = {}
+        for r in rs:
+            if factor == "size" and r["truth"] == "none":
+                continue  # clean data has no size
+            tally = levels.setdefault(str(r[factor]), [0, 0])
+            tally[0] += r["category"] == "right"
+            tally[1] += 1
+        out[factor] = {level: f"{k}/{n}" for level, (k, n) in sorted(levels.items())}
+    return out
+
+
+def _goals(s: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """Issue 12's goals for this benchmark, met or missed on the measured numbers."""
+    goals: dict[str, dict[str, Any]] = {}
+    ours, ind = s["per_generator"].get("ours"), s["per_generator"].get("independent")
+    if ours:
+        goals["right on our generator >= 95 %"] = {"value": ours["accuracy"], "met": ours["accuracy"] >= 0.95}
+        if ours["one_effect_accuracy"] is not None:
+            goals["one effect hidden (ours) >= 95 % right"] = {"value": ours["one_effect_accuracy"], "met": ours["one_effect_accuracy"] >= 0.95}
+    if ind:
+        goals["right on the independent generator >= 90 %"] = {"value": ind["accuracy"], "met": ind["accuracy"] >= 0.90}
+    goals["clean data never named an effect"] = {"value": s["clean_named_an_effect"], "met": s["clean_named_an_effect"] == 0}
+    goals["clean data never 'unexplained' when the refit reaches the noise"] = {
+        "value": s["clean_unexplained_with_refit_at_noise"], "met": s["clean_unexplained_with_refit_at_noise"] == 0,
+    }
+    goals["confident wrong names < 2 %"] = {"value": s["confident_wrong_rate"], "met": (s["confident_wrong_rate"] or 0.0) < 0.02}
+    return goals
+
+
+def run_grid(
+    n: int, seed: int = 0, generators: Sequence[str] = GENERATORS, max_rounds: int = DEFAULT_MAX_ROUNDS, budget_s: float = math.inf,
+    first: int = 0,
+) -> dict[str, Any]:
+    """Draw, run and summarise cases ``first``..``n - 1`` of the grid; one line per case on
+    stderr as it finishes (``first`` continues a run cut short: see :func:`merge`)."""
+    cases = draw_grid(n, seed, generators)[first:]
+    nominal = ModelConfig()
+    started = time.perf_counter()
+    records = []
+    for case in cases:
+        if time.perf_counter() - started > budget_s:
+            print(f"budget of {budget_s / 60:.0f} min spent: {len(records)} of {n} cases run", file=sys.stderr, flush=True)
+            break
+        r = run_case(case, nominal, max_rounds)
+        records.append(r)
+        print(
+            f"[{(time.perf_counter() - started) / 60:5.1f} min] case {case.index:3d} {case.generator:11s} truth {case.truth:21s} "
+            f"x{case.size:<3g} {case.fit_excitation:>6s}->{case.heldout_excitation:<6s} {case.sample_rate_hz:4d} Hz "
+            f"{case.sensors:8s} -> {r['answer']} [{r['category']}] refit {r.get('heldout_nominal_refit') or math.nan:.2f} "
+            f"({r['seconds_total']:.0f} s)",
+            file=sys.stderr, flush=True,
+        )
+    return {
+        "settings": {
+            "grid": n, "first": first, "seed": seed, "generators": list(generators), "max_rounds": max_rounds,
+            "fit_duration_s": FIT_DURATION_S, "heldout_duration_s": HELDOUT_DURATION_S, "perturb": PERTURB,
+            "sizes": list(SIZES), "sampling": [list(x) for x in SAMPLING], "excitations": list(EXCITATIONS),
+            "cases_run": len(records), "wall_seconds": time.perf_counter() - started,
+            "library": list(EFFECTS), "source": _source_state(),
+        },
+        "summary": summarise(records),
+        "cases": records,
+    }
+
+
+def merge(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """One report from several runs of the same grid (e.g. one continued with ``--first``)."""
+    settings = dict(results[0]["settings"])
+    keys = ("seed", "generators", "max_rounds", "library")
+    for r in results[1:]:
+        differ = [k for k in keys if r["settings"].get(k) != settings.get(k)]
+        if differ:
+            raise ValueError(f"cannot merge runs that differ in {differ}")
+    by_index = {c["index"]: c for r in results for c in r["cases"]}
+    records = [by_index[i] for i in sorted(by_index)]
+    settings.update(
+        grid=max(r["settings"]["grid"] for r in results), first=min(r["settings"].get("first", 0) for r in results),
+        cases_run=len(records), wall_seconds=sum(r["settings"]["wall_seconds"] for r in results),
+        # The code may have moved between runs: every run's commit and modified files are kept.
+        source=[r["settings"].get("source") for r in results],
+    )
+    return {"settings": settings, "summary": summarise(records), "cases": records}
+
+
+def _source_state() -> dict[str, Any]:
+    """The commit measured and the files that differed from it (the numbers belong to both)."""
+    root = Path(__file__).resolve().parent.parent
+
+    def git(*args: str) -> str:
+        try:
+            return subprocess.run(["git", *args], check=False, cwd=root, capture_output=True, text=True, timeout=30).stdout.strip("\n")
+        except (OSError, subprocess.SubprocessError):
+            return ""
+
+    return {"commit": git("rev-parse", "HEAD"), "modified": git("status", "--short", "--", "sma_gym").splitlines()}
+
+
+def _pct(x: float | None) -> str:
+    return "-" if x is None else f"{100 * x:.1f} %"
+
+
+def _interval(ci: Sequence[float] | None) -> str:
+    return "-" if ci is None else f"{100 * ci[0]:.0f}-{100 * ci[1]:.0f} %"
+
+
+def grid_markdown(result: dict[str, Any]) -> str:
+    """The grid's report as markdown: settings, goals, confusion matrices, factors, cases."""
+    st, s = result["settings"], result["summary"]
+    lines = [
+        "# Diagnosis benchmark grid",
+        "",
+        (f"`python benchmarks/bench_diagnosis.py --grid {st['grid']} --seed {st['seed']} "
+        f"{'--first ' + str(st['first']) + ' ' if st.get('first') else ''}"
+        f"--generator {'both' if len(st['generators']) > 1 else st['generators'][0]} --max-rounds {st['max_rounds']}`: "
+        f"{st['cases_run']} of {st['grid']} cases run in {st['wall_seconds'] / 60:.1f} min; fit {st['fit_duration_s']:g} s, "
+        f"held out {st['heldout_duration_s']:g} s, nominal perturbed {100 * st['perturb']:g} %."),
+        "",
+        "## Goals",
+        "",
+        "| goal | measured | met |",
+        "|---|---|---|",
+    ]
+    for goal, g in s["goals"].items():
+        v = g["value"]
+        shown = _pct(v) if isinstance(v, float) else str(v)
+        lines.append(f"| {goal} | {shown} | {'yes' if g['met'] else '**no**'} |")
+    lines += [
+        "",
+        (f"Confident wrong names: {s['confident_wrong']} of {s['cases']} ({_pct(s['confident_wrong_rate'])}, "
+        f"95 % interval {_interval(s['confident_wrong_rate_ci95'])}). "
+        f"Clean cases: {s['clean_cases']}; named an effect (effect/effects/ambiguous) {s['clean_named_an_effect']}, "
+        f"of which effect/effects {s['clean_effect_verdicts']}; unexplained {s['clean_unexplained']} "
+        f"(with the refit at the noise, <= {NOISE_STOP:g}x: {s['clean_unexplained_with_refit_at_noise']}). "
+        f"Median seconds per case: diagnosis {s['median_seconds_diagnose'] or math.nan:.0f} s, "
+        f"with data generation {s['median_seconds_per_case'] or math.nan:.0f} s. Errors: {s['errors']}."),
+    ]
+    for g, pg in s["per_generator"].items():
+        labels = sorted({a for row in pg["confusion"].values() for a in row})
+        lines += [
+            "",
+            f"## Generator: {g}",
+            "",
+            (f"{pg['cases']} cases: right {pg['right']} ({_pct(pg['accuracy'])}, 95 % interval {_interval(pg['accuracy_ci95'])}); "
+            f"ambiguous naming the truth "
+            f"{pg['ambiguous_with_truth']}; confident wrong {pg['confident_wrong']} ({_pct(pg['confident_wrong_rate'])}); "
+            f"other misses {pg['miss']}. One effect hidden: {_pct(pg['one_effect_accuracy'])} right; "
+            f"clean: {_pct(pg['clean_accuracy'])} right."),
+            "",
+            "| truth \\ answer | " + " | ".join(labels) + " |",
+            "|---" * (len(labels) + 1) + "|",
+        ]
+        for truth, row in pg["confusion"].items():
+            lines.append(f"| {truth} | " + " | ".join(str(row.get(a, 0)) if row.get(a) else "." for a in labels) + " |")
+        lines += ["", "| factor | right / cases per level |", "|---|---|"]
+        for factor, levels in pg["by_factor"].items():
+            lines.append(f"| {factor} | " + ", ".join(f"{k}: {v}" for k, v in levels.items()) + " |")
+    lines += [
+        "",
+        "## Cases",
+        "",
+        ("Held-out normalised RMS (1 = the noise) of the model as given, the nominal refit and the last round's "
+        "model (the model as given when nothing was found); held-out position RMS of the nominal and the corrected model."),
+        "",
+        "| # | generator | truth | size | fit -> held out | rate | sensors | answer | category | held-out RMS | position [mm] | s |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in result["cases"]:
+        rms = "/".join("-" if r.get(k) is None else f"{r[k]:.2f}" for k in ("heldout_as_given", "heldout_nominal_refit", "heldout_final"))
+        mm = " -> ".join("-" if r.get(k) is None else f"{1e3 * r[k]:.3f}" for k in ("position_rms_before_m", "position_rms_after_m"))
+        lines.append(
+            f"| {r['index']} | {r['generator']} | {r['truth']} | {r['size']:g} | {r['fit_excitation']} -> {r['heldout_excitation']} | "
+            f"{r['sample_rate_hz']} Hz | {r['sensors']} | {r['answer']} | {r['category']} | {rms} | {mm} | {r['seconds_total']:.0f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=3)
-    parser.add_argument("--json", action="store_true")
+    parser.add_argument("--seeds", type=int, default=3, help="default mode: seeds per truth")
+    parser.add_argument("--json", action="store_true", help="print the results as JSON on stdout")
+    parser.add_argument("--max-rounds", type=int, default=DEFAULT_MAX_ROUNDS, help="rounds of the iterated diagnosis")
+    parser.add_argument("--grid", type=int, default=0, metavar="N", help="run the fractional-factorial benchmark of N cases instead")
+    parser.add_argument("--seed", type=int, default=0, help="grid: seed of the draw and of the data")
+    parser.add_argument("--generator", choices=("ours", "independent", "both"), default="both", help="grid: truth generator(s)")
+    parser.add_argument("--budget-min", type=float, default=math.inf, help="grid: start no new case after this many minutes")
+    parser.add_argument("--first", type=int, default=0, help="grid: skip the first cases (continue a run cut short)")
+    parser.add_argument("--out", type=Path, help="grid: write the report as markdown to this file")
+    parser.add_argument("--merge", type=Path, nargs="+", metavar="JSON", help="report on saved --grid --json runs together, run nothing")
     args = parser.parse_args()
-    result = run(args.seeds)
+    if args.grid or args.merge:
+        generators = GENERATORS if args.generator == "both" else (args.generator,)
+        if args.merge:
+            result = merge([json.loads(path.read_text()) for path in args.merge])
+        else:
+            result = run_grid(args.grid, args.seed, generators, args.max_rounds, args.budget_min * 60.0, args.first)
+        markdown = grid_markdown(result)
+        if args.out is not None:
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            args.out.write_text(markdown)
+        print(json.dumps(result, indent=2) if args.json else markdown)
+        return 0
+    result = run(args.seeds, args.max_rounds)
     if args.json:
         print(json.dumps(result, indent=2))
         return 0

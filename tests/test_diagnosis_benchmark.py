@@ -1,0 +1,104 @@
+"""The draw and the scoring of ``benchmarks/bench_diagnosis.py --grid`` (issue 12).
+
+The grid is only a fair benchmark if its draw is balanced over every factor, reproducible
+from its seed, never holds out the excitation it fitted, and asks the independent generator
+only for effects it can hide. None of this needs a diagnosis to run: these tests only draw.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from collections import Counter
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from sma_gym.effects import EFFECTS
+
+BENCH_PATH = Path(__file__).resolve().parent.parent / "benchmarks" / "bench_diagnosis.py"
+
+
+@pytest.fixture(scope="module")
+def bench() -> ModuleType:
+    """The benchmark script, loaded by file path (``benchmarks`` is not a package)."""
+    spec = importlib.util.spec_from_file_location("bench_diagnosis", BENCH_PATH)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("bench_diagnosis", module)  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_grid_is_reproducible_and_a_prefix_of_any_larger_grid(bench: ModuleType) -> None:
+    """Same seed, same cases; a grid cut short is the smaller grid; another seed differs."""
+    big = bench.draw_grid(60, seed=3)
+    assert big == bench.draw_grid(60, seed=3)
+    assert bench.draw_grid(17, seed=3) == big[:17]
+    assert bench.draw_grid(60, seed=4) != big
+
+
+@pytest.mark.parametrize("n", [24, 37, 120])
+def test_every_factor_is_balanced_within_one_case_per_generator(bench: ModuleType, n: int) -> None:
+    cases = bench.draw_grid(n, seed=0)
+    by_generator = Counter(c.generator for c in cases)
+    assert max(by_generator.values()) - min(by_generator.values()) <= 1
+    for g in bench.GENERATORS:
+        mine = [c for c in cases if c.generator == g]
+        truths = bench.grid_truths(g)
+        blocks, rest = divmod(len(mine), len(truths))
+        counts = Counter(c.truth for c in mine)
+        for truth in set(truths):
+            per_block = truths.count(truth)
+            # Complete shuffled blocks: each truth its share of every block, plus the partial one.
+            assert blocks * per_block <= counts[truth] <= blocks * per_block + min(per_block, rest), (g, truth, counts)
+        for attr, levels in (
+            ("fit_excitation", bench.EXCITATIONS),
+            ("sampling", bench.SAMPLING),
+        ):
+            values = [c.fit_excitation if attr == "fit_excitation" else (c.sample_rate_hz, c.sensors) for c in mine]
+            tally = Counter(values)
+            assert set(tally) <= set(levels)
+            assert max(tally.values()) - min(tally.get(level, 0) for level in levels) <= 1, (g, attr, tally)
+
+
+def test_cases_fit_and_hold_out_different_excitations_and_truths_the_generator_supports(bench: ModuleType) -> None:
+    independent = set(bench.independent_module().INDEPENDENT_EFFECTS)
+    for c in bench.draw_grid(90, seed=1):
+        assert c.fit_excitation != c.heldout_excitation
+        assert c.sample_rate_hz in (1000, 100) and c.sensors in ("all", "position")
+        if c.truth == "none":
+            assert c.size == 0.0 and c.effect_values() == {}
+            continue
+        assert c.size in bench.SIZES
+        if c.generator == "independent":
+            assert c.truth in independent
+        else:
+            # Our generator hides the effect in its alternative form, where it has one.
+            forms = EFFECTS[c.truth].forms
+            assert c.form == (forms[1] if len(forms) > 1 else "default")
+        for name, value in c.effect_values().items():
+            p = EFFECTS[c.truth].parameter(name)
+            assert p.lower <= value <= p.upper, (c, name, value)
+
+
+def test_effect_size_scales_the_deviation_from_off(bench: ModuleType) -> None:
+    case = bench.GridCase(0, "ours", "convection_change", "power", "steps", "sine", 0.5, 1000, "all", 1)
+    values = case.effect_values()
+    assert values["scale"] == pytest.approx(1.3)  # off 1.0, typical 1.6
+    assert values["h1_w_m2_k2"] == pytest.approx(0.3)  # off 0.0, typical 0.6
+
+
+def test_scoring_separates_right_not_wrong_and_confidently_wrong(bench: ModuleType) -> None:
+    classify = bench.classify
+    assert classify("none", "none", []) == "right"
+    assert classify("sensor_lag", "effect", ["sensor_lag"]) == "right"
+    assert classify("sensor_lag", "ambiguous", ["abbe_offset", "sensor_lag"]) == "ambiguous_with_truth"
+    assert classify("sensor_lag", "ambiguous", ["abbe_offset", "coulomb_friction"]) == "miss"
+    assert classify("sensor_lag", "effect", ["abbe_offset"]) == "confident_wrong"
+    # The hidden effect plus a spurious one is still a confident wrong name.
+    assert classify("sensor_lag", "effects", ["sensor_lag", "latent_heat"]) == "confident_wrong"
+    assert classify("none", "effect", ["latent_heat"]) == "confident_wrong"
+    assert classify("none", "unexplained", []) == "miss"
+    assert classify("latent_heat", "none", []) == "miss"
