@@ -179,3 +179,26 @@ def test_the_zoo_preprocesses_every_entry(tmp_path):
             # residual base duty + 5 history features on top of the raw observation
             assert venv.observation_space.shape[0] == gym.make(env_id).observation_space.shape[0] + 1 + 5
             venv.close()
+
+
+def test_the_zoo_trains_our_default_agent_from_our_file(tmp_path):
+    """``python -m rl_zoo3.train`` with our conf file, a few hundred steps: the saved model
+    sees what train.py's does (raw observation, base duty, five history features)."""
+    pytest.importorskip("rl_zoo3", reason="RL Zoo not installed (pip install -e .[zoo])")
+    import subprocess
+    import sys
+
+    from stable_baselines3 import SAC
+
+    cmd = [
+        sys.executable, "-m", "rl_zoo3.train", "--algo", "sac", "--env", "SMATracking-v0", "--gym-packages", "sma_gym",
+        "--conf-file", str(FILES["sac"]), "-n", "400", "--eval-freq", "-1", "--num-threads", "1", "--seed", "0",
+        "-f", str(tmp_path), "-params", "learning_starts:100", "buffer_size:1000",
+    ]
+    proc = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    (model_zip,) = tmp_path.glob("sac/SMATracking-v0_*/SMATracking-v0.zip")
+    model = SAC.load(model_zip, device="cpu")
+    raw = gym.make("SMATracking-v0").observation_space.shape[0]
+    assert model.observation_space.shape == (raw + 1 + 5,)
+    assert model.batch_size == 256 and model.tau == 0.02 and model.gradient_steps == 2 and list(model.policy.net_arch) == [256, 256]
