@@ -51,12 +51,15 @@ def test_each_seed_runs_train_py_with_the_same_options_and_its_own_seed_and_fold
     parser = build_parser()
     args = parse_args(["--seeds", "3", "--workers", "2", "--quick", "--residual", "none", "--timesteps", "900", "--seed", "4"])
     argv = seed_argv(parser, args, 5, tmp_path / "seed-5")
-    assert argv == ["--timesteps", "900", "--residual", "none", "--quick", "--seed", "5", "--out", str(tmp_path / "seed-5"), "--no-progress"]
+    assert argv == ["--timesteps", "900", "--residual", "none", "--quick", "--seed", "5", "--out", str(tmp_path / "seed-5")]
     # What a seed's process would run is an ordinary train.py configuration.
     assert parse_args(argv).seed == 5 and parse_args(argv).seeds is None
 
 
-def test_bad_sweep_options_exit_2(capsys):
+def test_bad_sweep_options_exit_2(capsys, tmp_path):
+    with pytest.raises(ValueError, match="timesteps"):  # run_seed (for an external engine) refuses as train.py does
+        sweep_module.run_seed(["--timesteps", "0"], 0, tmp_path / "seed-0")
+    assert not (tmp_path / "seed-0").exists()
     assert main(["--seeds", "0"]) == 2 and "--seeds" in capsys.readouterr().err
     assert main(["--seeds", "2", "--workers", "0"]) == 2 and "--workers" in capsys.readouterr().err
     assert main(["--workers", "2"]) == 2 and "--seeds" in capsys.readouterr().err

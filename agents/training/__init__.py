@@ -14,6 +14,7 @@
   history features, frame stack) in training and on the validation references;
 * :mod:`agents.training.learn`: the stable-baselines3 loop, checkpoints, best model, progress;
 * :mod:`agents.training.compare`: the agent beside the report's controllers, and the goals;
+* :mod:`agents.training.run`: one run into its folder (train, compare, write the results);
 * :mod:`agents.training.cli`: ``main(argv)``, what ``train.py`` runs.
 * :mod:`agents.training.sweep`: ``train.py --seeds N``, the same configuration over seeds in
   parallel processes, every goal as an interquartile mean with a bootstrap interval.

@@ -26,14 +26,14 @@ from typing import Any
 
 import numpy as np
 
-from agents.training.config import ROOT, RunConfig, build_parser
+from agents.training.config import ROOT, RunConfig, build_parser, parse_args
 
 BOOTSTRAP_RESAMPLES = 2_000
 BOOTSTRAP_SEED = 0
 CONFIDENCE = 0.95
 SWEEP_OUTPUTS = ("seeds.md", "seeds.json", "logs")
 """What a sweep writes besides its ``seed-<s>`` folders (deleted first by ``--overwrite``)."""
-_NOT_PER_SEED = {"help", "seeds", "workers", "seed", "out", "overwrite", "no_progress"}
+_NOT_PER_SEED = {"help", "seeds", "workers", "seed", "out", "overwrite"}
 """Options of the sweep itself, not passed on to each seed's run."""
 
 
@@ -111,7 +111,8 @@ def seeds_table(run: RunConfig, seeds: list[int], summary: dict[str, Any], faile
 
 def seed_argv(parser: argparse.ArgumentParser, args: argparse.Namespace, seed: int, out: Path) -> list[str]:
     """``train.py`` options of one seed's run: the sweep's own options replaced by
-    ``--seed``, ``--out`` and ``--no-progress``, every other option passed on as given."""
+    ``--seed`` and ``--out``, every other option passed on as given (its log is no
+    terminal, so the run prints a progress line a minute rather than a bar)."""
     argv: list[str] = []
     for action in parser._actions:
         if action.dest in _NOT_PER_SEED or not action.option_strings:
@@ -121,7 +122,7 @@ def seed_argv(parser: argparse.ArgumentParser, args: argparse.Namespace, seed: i
             continue
         flag = action.option_strings[-1]
         argv += [flag] if value is True else [flag, str(value)]
-    return [*argv, "--seed", str(seed), "--out", str(out), "--no-progress"]
+    return [*argv, "--seed", str(seed), "--out", str(out)]
 
 
 def seed_command(argv: list[str]) -> list[str]:
@@ -143,13 +144,14 @@ def _run_seed_process(argv: list[str], log: Path, threads: int) -> int:
 
 def run_seed(options: list[str], seed: int, out: str | Path) -> dict[str, Any]:
     """Train one seed in this process (``train.py`` with ``options``, ``--seed`` and
-    ``--out``) and return its goals (``goals.json``'s ``goals``): the function a cluster
-    engine (README "Training", Ray Tune) calls once per seed."""
-    from agents.training.cli import main
+    ``--out``) and return its goals (as ``goals.json`` records them): the function a
+    cluster engine (README "Training", Ray Tune) calls once per seed. ``ValueError`` on a
+    bad option, as ``train.py`` exits 2."""
+    from agents.training.run import train_and_compare
 
-    if main([*options, "--seed", str(seed), "--out", str(out), "--no-progress"]) != 0:
-        raise RuntimeError(f"train.py {options} --seed {seed}: failed (see its error above)")
-    return json.loads((Path(out) / "goals.json").read_text())["goals"]
+    run = RunConfig.from_args(parse_args([*options, "--seed", str(seed)]))
+    _, goals = train_and_compare(run, Path(out), progress=False)
+    return goals
 
 
 def read_goals(folder: Path) -> dict[str, dict[str, Any]]:
@@ -209,14 +211,54 @@ def prepare_sweep_out(out: Path) -> None:
             path.unlink()
 
 
+def default_sweep_out(run: RunConfig) -> Path:
+    """``runs/<env>-<algo>-seeds-<local time>`` beside ``train.py``."""
+    import datetime
+
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    return ROOT / "runs" / f"{run.env_id}-{run.algo}-seeds-{stamp}"
+
+
+def check_sweep_args(args: argparse.Namespace) -> None:
+    """``--seeds`` / ``--workers`` checked; ``args.workers`` defaulted to min(N, cores)."""
+    if args.seeds is None:
+        raise ValueError("--workers: only with --seeds N")
+    if args.seeds < 1:
+        raise ValueError(f"--seeds {args.seeds}: expected an integer >= 1")
+    if args.workers is None:
+        args.workers = max(1, min(args.seeds, os.cpu_count() or 1))
+    if args.workers < 1:
+        raise ValueError(f"--workers {args.workers}: expected an integer >= 1")
+
+
+def sweep_main(args: argparse.Namespace, run: RunConfig) -> int:
+    """``train.py --seeds N``: the folder checked and locked, the sweep, its table printed;
+    0, or 1 if seeds failed."""
+    from sma_gym._io import check_output_folder, locked_folder
+
+    out = Path(args.out) if args.out else default_sweep_out(run)
+    check_output_folder(out, must_be_empty=not args.overwrite)
+    with locked_folder(out):
+        if args.overwrite:
+            prepare_sweep_out(out)
+        table, failed = sweep(args, run, out)
+    print(table)
+    print(f"sweep folder: {out}")
+    return 1 if failed else 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """``python -m agents.training.sweep``: ``train.py`` with ``--seeds`` (default 5)."""
-    from agents.training.cli import main as train_main
-
     argv = list(sys.argv[1:] if argv is None else argv)
     if not any(a == "--seeds" or a.startswith("--seeds=") for a in argv):
         argv = ["--seeds", "5", *argv]
-    return train_main(argv)
+    try:
+        args = parse_args(argv)
+        check_sweep_args(args)
+        return sweep_main(args, RunConfig.from_args(args))
+    except ValueError as err:
+        print(f"train.py: error: {err}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -1,0 +1,45 @@
+"""One training run into its folder: train, compare with the baselines, write the results.
+
+The single-run path of ``train.py``, shared by its command line (:mod:`agents.training.cli`)
+and by every seed of a sweep (:mod:`agents.training.sweep`).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+from agents.training.config import RunConfig, prepare_out
+
+
+def train_and_compare(run: RunConfig, out: Path, *, overwrite: bool = False, progress: bool = True) -> tuple[str, dict[str, Any]]:
+    """Train ``run`` into ``out`` and compare its best model with the baselines; write
+    ``run.json``, ``results.md`` and ``goals.json``. ``(results.md text, goals)``;
+    ``ValueError`` if ``out`` is not new or empty (unless ``overwrite``) or is in use."""
+    from sma_gym._io import check_output_folder, locked_folder, write_json, write_text
+
+    # Every argument, --out included, is checked before anything is created.
+    check_output_folder(out, must_be_empty=not overwrite)
+    # Imported after the checks: a bad option is refused without loading stable-baselines3.
+    from agents.training.compare import compare
+    from agents.training.learn import train
+
+    with locked_folder(out):
+        if overwrite:
+            prepare_out(out)
+        write_json(out / "run.json", run.as_dict(), default=str)
+        started = time.perf_counter()
+        info = train(run, out, progress=progress)
+        table, goals = compare(run, out)
+        total = time.perf_counter() - started
+        table += (
+            f"\nTraining {info.train_time_s / 60:.1f} min, training + evaluation {total / 60:.1f} min "
+            f"({run.timesteps} steps, {run.n_envs} envs, seed {run.seed}).\n"
+        )
+        write_text(out / "results.md", table)
+        write_json(
+            out / "goals.json",
+            {"goals": goals, "train_time_s": info.train_time_s, "total_time_s": total, "validation_references": info.validation_references},
+        )
+    return table, goals
