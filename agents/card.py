@@ -21,9 +21,10 @@ The JSON document (version 1)::
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from sma_gym._io import read_json_object, sha256_file, write_json
 
@@ -65,7 +66,11 @@ def _problems(values: Mapping[str, Any]) -> list[tuple[str, str]]:
         ("env_kwargs", isinstance(values.get("env_kwargs", {}), dict), "a JSON object of make kwargs"),
         ("frame_stack", _is_int(values.get("frame_stack", 1)) and values.get("frame_stack", 1) >= 1, "an integer >= 1"),
         ("history", values.get("history", "none") in HISTORIES, "'none' or 'ema'"),
-        ("residual", values.get("residual") is None or isinstance(values.get("residual"), str), "null or a controller label such as 'VSC3 + FF'"),
+        (
+            "residual",
+            values.get("residual") is None or isinstance(values.get("residual"), str),
+            "null or a controller label such as 'VSC3 + FF'",
+        ),
         (
             "residual_scale",
             _is_number(values.get("residual_scale", 0.5)) and 0.0 < values.get("residual_scale", 0.5) <= 1.0,
@@ -177,7 +182,9 @@ class PolicyCard:
         card = cls.from_dict(values, where)
         digest = values.get("model_sha256")
         if not isinstance(digest, str) or len(digest) != 64:
-            raise ValueError(f"{where}: model_sha256 = {digest!r}: expected the SHA-256 (64 hex digits) of the model zip it describes")
+            raise ValueError(
+                f"{where}: model_sha256 = {digest!r}: expected the SHA-256 (64 hex digits) of the model zip it describes"
+            )
         if digest != sha256_file(zip_path):
             raise ValueError(
                 f"policy {str(zip_path)!r}: its card {str(path)!r} describes another model (SHA-256 mismatch); "

@@ -7,8 +7,8 @@ where :mod:`sma_gym.cli` finds them; ``sma_gym`` itself never imports ``agents``
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from agents import evaluation, report_targets
 from agents.report import table_6_1_markdown, write_report
@@ -22,8 +22,12 @@ from sma_gym.cli import Command
 # --------------------------------------------------------------------------------------
 def _fidelity_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", help="folder for the PNG plots")
-    p.add_argument("--json", action="store_true", help='print {"rows": [...], "summary": {...}} as JSON instead of a table')
-    p.add_argument("--quick", action="store_true", help="one seed, shorter sines and sweeps (about 1.5 minutes, for smoke tests)")
+    p.add_argument(
+        "--json", action="store_true", help='print {"rows": [...], "summary": {...}} as JSON instead of a table'
+    )
+    p.add_argument(
+        "--quick", action="store_true", help="one seed, shorter sines and sweeps (about 1.5 minutes, for smoke tests)"
+    )
 
 
 def _fidelity(args: argparse.Namespace) -> int:
@@ -67,9 +71,13 @@ def _evaluate(args: argparse.Namespace) -> int:
     # Everything checked before the (long) evaluation starts.
     for e in experiments:
         if e not in evaluation.EXPERIMENTS:
-            raise ValueError(f"--experiments {e!r}: expected a comma-separated subset of {', '.join(evaluation.EXPERIMENTS)}")
+            raise ValueError(
+                f"--experiments {e!r}: expected a comma-separated subset of {', '.join(evaluation.EXPERIMENTS)}"
+            )
     if not experiments:
-        raise ValueError(f"--experiments {args.experiments!r}: expected at least one of {', '.join(evaluation.EXPERIMENTS)}")
+        raise ValueError(
+            f"--experiments {args.experiments!r}: expected at least one of {', '.join(evaluation.EXPERIMENTS)}"
+        )
     if args.seeds < 1:
         raise ValueError(f"--seeds {args.seeds}: expected an integer >= 1")
     for b in baselines or []:

@@ -114,7 +114,9 @@ class Controller:
         self._integral[m] = 0.0
         self._started[m] = False
 
-    def __call__(self, position_m: np.ndarray, reference_m: np.ndarray, reference_rate_m_s: np.ndarray | None = None) -> np.ndarray:
+    def __call__(
+        self, position_m: np.ndarray, reference_m: np.ndarray, reference_rate_m_s: np.ndarray | None = None
+    ) -> np.ndarray:
         """Duty (n,) for measured positions and references (shape (n,) or scalars)."""
         x = self._vector(position_m)
         r = self._vector(reference_m)

@@ -33,8 +33,9 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -126,7 +127,14 @@ def agent_entry(agent: AgentPolicy) -> PolicyEntry:
     if env_id == "SMARobust-v0":
         # Same observation as the tracking env; conditions are set through the model.
         env_id = "SMATracking-v0"
-    return PolicyEntry(agent.name, lambda env, a=agent: a, env_id=env_id, env_kwargs=kwargs, frame_stack=agent.frame_stack, kind="agent")
+    return PolicyEntry(
+        agent.name,
+        lambda env, a=agent: a,
+        env_id=env_id,
+        env_kwargs=kwargs,
+        frame_stack=agent.frame_stack,
+        kind="agent",
+    )
 
 
 # --------------------------------------------------------------------------------------
@@ -143,7 +151,16 @@ class Trace:
         return self.data[key]
 
 
-_RECORD = ("position_m", "position_measured_m", "reference_m", "duty", "power_w", "electrical_energy_j", "spring_force_n", "temperature_c")
+_RECORD = (
+    "position_m",
+    "position_measured_m",
+    "reference_m",
+    "duty",
+    "power_w",
+    "electrical_energy_j",
+    "spring_force_n",
+    "temperature_c",
+)
 
 
 def make_venv(entry: PolicyEntry, n_envs: int, seconds: float, env_kwargs: dict):
@@ -160,21 +177,43 @@ def make_venv(entry: PolicyEntry, n_envs: int, seconds: float, env_kwargs: dict)
     steps = int(round(seconds / dt))
     spec = gym.spec(entry.env_id)
     mode = "vector_entry_point" if spec.vector_entry_point is not None else "sync"
-    venv = gym.make_vec("sma_gym:" + entry.env_id, num_envs=n_envs, vectorization_mode=mode, max_episode_steps=steps + 1, **kwargs)
+    venv = gym.make_vec(
+        "sma_gym:" + entry.env_id, num_envs=n_envs, vectorization_mode=mode, max_episode_steps=steps + 1, **kwargs
+    )
     return venv, steps, dt
 
 
-def rollout(entry: PolicyEntry, *, model: Any = "standard", reference: Any, seconds: float, seeds: Sequence[int] = DEFAULT_SEEDS, noise_m: float = EVAL_NOISE_M, env_kwargs: dict | None = None) -> Trace:
+def rollout(
+    entry: PolicyEntry,
+    *,
+    model: Any = "standard",
+    reference: Any,
+    seconds: float,
+    seeds: Sequence[int] = DEFAULT_SEEDS,
+    noise_m: float = EVAL_NOISE_M,
+    env_kwargs: dict | None = None,
+) -> Trace:
     """Run ``entry`` once per seed on ``reference`` for ``seconds``; record the true state.
 
     Seed i of the run is ``seeds[0] + i`` (sensor noise differs per seed). Agents trained
     on stacked observations get them stacked by stable-baselines3's own
     ``StackedObservations``, exactly as ``VecFrameStack`` did in training.
     """
-    return rollouts([entry], model=model, reference=reference, seconds=seconds, seeds=seeds, noise_m=noise_m, env_kwargs=env_kwargs)[0]
+    return rollouts(
+        [entry], model=model, reference=reference, seconds=seconds, seeds=seeds, noise_m=noise_m, env_kwargs=env_kwargs
+    )[0]
 
 
-def rollouts(entries: Sequence[PolicyEntry], *, model: Any = "standard", reference: Any, seconds: float, seeds: Sequence[int] = DEFAULT_SEEDS, noise_m: float = EVAL_NOISE_M, env_kwargs: dict | None = None) -> list[Trace]:
+def rollouts(
+    entries: Sequence[PolicyEntry],
+    *,
+    model: Any = "standard",
+    reference: Any,
+    seconds: float,
+    seeds: Sequence[int] = DEFAULT_SEEDS,
+    noise_m: float = EVAL_NOISE_M,
+    env_kwargs: dict | None = None,
+) -> list[Trace]:
     """:func:`rollout` for several entries side by side in one vector env (one trace each).
 
     The entries must share env id, env kwargs and frame stack (:func:`batchable`). Entry k
@@ -183,7 +222,9 @@ def rollouts(entries: Sequence[PolicyEntry], *, model: Any = "standard", referen
     :func:`rollout` gives; only the Python overhead per control step is shared.
     """
     first = entries[0]
-    if any((e.env_id, e.env_kwargs, e.frame_stack) != (first.env_id, first.env_kwargs, first.frame_stack) for e in entries):
+    if any(
+        (e.env_id, e.env_kwargs, e.frame_stack) != (first.env_id, first.env_kwargs, first.frame_stack) for e in entries
+    ):
         raise ValueError("rollouts: entries must share env id, env kwargs and frame stack")
     width = len(seeds)
     kwargs = {"model": model, "reference": reference, "position_noise_std_m": noise_m, **(env_kwargs or {})}
@@ -206,7 +247,12 @@ def rollouts(entries: Sequence[PolicyEntry], *, model: Any = "standard", referen
     record: dict[str, list] = {k: [] for k in _RECORD}
     starts = np.ones(n, dtype=bool)
     for _ in range(steps):
-        actions = [p.predict(obs[k * width : (k + 1) * width], episode_start=starts[k * width : (k + 1) * width], deterministic=True)[0] for k, p in enumerate(policies)]
+        actions = [
+            p.predict(
+                obs[k * width : (k + 1) * width], episode_start=starts[k * width : (k + 1) * width], deterministic=True
+            )[0]
+            for k, p in enumerate(policies)
+        ]
         action = actions[0] if len(actions) == 1 else np.concatenate(actions)
         starts = np.zeros(n, dtype=bool)
         obs, _, terminated, truncated, info = venv.step(action)
@@ -216,11 +262,15 @@ def rollouts(entries: Sequence[PolicyEntry], *, model: Any = "standard", referen
             record[key].append(np.asarray(info[key], dtype=float))
         if np.any(terminated | truncated):
             names = [entries[i // width].name for i in np.flatnonzero(terminated | truncated)]
-            raise RuntimeError(f"{', '.join(dict.fromkeys(names))}: an evaluation episode ended early (overheated?) at t = {info['time_s']} s")
+            raise RuntimeError(
+                f"{', '.join(dict.fromkeys(names))}: an evaluation episode ended early (overheated?) at t = {info['time_s']} s"
+            )
     venv.close()
     data = {k: np.asarray(v, dtype=float) for k, v in record.items()}
     t = (np.arange(steps) + 1) * dt
-    return [Trace(t=t, data={k: v[:, k_ * width : (k_ + 1) * width] for k, v in data.items()}) for k_ in range(len(entries))]
+    return [
+        Trace(t=t, data={k: v[:, k_ * width : (k_ + 1) * width] for k, v in data.items()}) for k_ in range(len(entries))
+    ]
 
 
 def batchable(entries: Sequence[PolicyEntry]) -> list[list[PolicyEntry]]:
@@ -233,7 +283,12 @@ def batchable(entries: Sequence[PolicyEntry]) -> list[list[PolicyEntry]]:
     for e in entries:
         shareable = e.kind == "baseline" and e.env_id == "SMATracking-v0" and e.frame_stack == 1
         last = groups[-1] if groups else None
-        if shareable and last and last[0].kind == "baseline" and (last[0].env_id, last[0].env_kwargs, last[0].frame_stack) == (e.env_id, e.env_kwargs, 1):
+        if (
+            shareable
+            and last
+            and last[0].kind == "baseline"
+            and (last[0].env_id, last[0].env_kwargs, last[0].frame_stack) == (e.env_id, e.env_kwargs, 1)
+        ):
             last.append(e)
         else:
             groups.append([e])
@@ -259,7 +314,9 @@ class _ColumnView:
 # --------------------------------------------------------------------------------------
 # Metrics (per seed; lengths in metres)
 # --------------------------------------------------------------------------------------
-def step_metrics(trace: Trace, step_time_s: float = STEP_TIME_S, level_m: float = STEP_LEVEL_M) -> dict[str, np.ndarray]:
+def step_metrics(
+    trace: Trace, step_time_s: float = STEP_TIME_S, level_m: float = STEP_LEVEL_M
+) -> dict[str, np.ndarray]:
     x, r, t = trace["position_m"], trace["reference_m"], trace.t
     after = t >= step_time_s
     tail = t >= t[-1] - 1.0
@@ -358,7 +415,9 @@ class Record:
         return d
 
 
-def _records(experiment: str, policy: str, condition: str, reference: str, metrics: dict[str, np.ndarray]) -> list[Record]:
+def _records(
+    experiment: str, policy: str, condition: str, reference: str, metrics: dict[str, np.ndarray]
+) -> list[Record]:
     out = []
     for name, values in metrics.items():
         v = np.asarray(values, dtype=float)
@@ -383,9 +442,17 @@ class Results:
     records: list[Record] = field(default_factory=list)
     traces: dict[tuple, Trace] = field(default_factory=dict)
 
-    def value(self, experiment: str, policy: str, condition: str, reference: str, metric: str, worst: bool = False) -> float:
+    def value(
+        self, experiment: str, policy: str, condition: str, reference: str, metric: str, worst: bool = False
+    ) -> float:
         for r in self.records:
-            if (r.experiment, r.policy, r.condition, r.reference, r.metric) == (experiment, policy, condition, reference, metric):
+            if (r.experiment, r.policy, r.condition, r.reference, r.metric) == (
+                experiment,
+                policy,
+                condition,
+                reference,
+                metric,
+            ):
                 return r.worst if worst else r.value
         raise KeyError((experiment, policy, condition, reference, metric))
 
@@ -404,24 +471,48 @@ class Results:
 # --------------------------------------------------------------------------------------
 # Experiments
 # --------------------------------------------------------------------------------------
-def run_table_6_1(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = DEFAULT_SEEDS, condition: str = "standard", model: Any = "standard", sine_seconds: float = SINE_SECONDS) -> None:
+def run_table_6_1(
+    entries: Sequence[PolicyEntry],
+    results: Results,
+    seeds: Sequence[int] = DEFAULT_SEEDS,
+    condition: str = "standard",
+    model: Any = "standard",
+    sine_seconds: float = SINE_SECONDS,
+) -> None:
     for group in batchable(entries):
         _step_and_sine("6.1", group, model, condition, results, seeds, sine_seconds)
 
 
-def run_chapter_7(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = DEFAULT_SEEDS, conditions: Sequence[tuple[str, str]] = CHAPTER_7_CONDITIONS, sine_seconds: float = SINE_SECONDS) -> None:
+def run_chapter_7(
+    entries: Sequence[PolicyEntry],
+    results: Results,
+    seeds: Sequence[int] = DEFAULT_SEEDS,
+    conditions: Sequence[tuple[str, str]] = CHAPTER_7_CONDITIONS,
+    sine_seconds: float = SINE_SECONDS,
+) -> None:
     for label, preset_name in conditions:
         for group in batchable(entries):
             _step_and_sine("7", group, preset_name, label, results, seeds, sine_seconds)
 
 
-def _step_and_sine(experiment: str, entries: Sequence[PolicyEntry], model: Any, condition: str, results: Results, seeds: Sequence[int], sine_seconds: float = SINE_SECONDS) -> None:
+def _step_and_sine(
+    experiment: str,
+    entries: Sequence[PolicyEntry],
+    model: Any,
+    condition: str,
+    results: Results,
+    seeds: Sequence[int],
+    sine_seconds: float = SINE_SECONDS,
+) -> None:
     """The report's 8 mm step and 0.1 Hz sine for policies on one model: metrics and traces.
 
     ``sine_seconds`` shorter than the default (quick runs) ends the sine's scoring window there.
     """
     window = (SINE_WINDOW_S[0], min(SINE_WINDOW_S[1], sine_seconds))
-    for reference, seconds, metrics in (("step", STEP_SECONDS, step_metrics), ("sine", sine_seconds, lambda tr: sine_metrics(tr, window))):
+    for reference, seconds, metrics in (
+        ("step", STEP_SECONDS, step_metrics),
+        ("sine", sine_seconds, lambda tr: sine_metrics(tr, window)),
+    ):
         traces = rollouts(entries, model=model, reference=f"report-{reference}", seconds=seconds, seeds=seeds)
         for entry, trace in zip(entries, traces):
             results.records += _records(experiment, entry.name, condition, reference, metrics(trace))
@@ -432,17 +523,37 @@ def efficiency_reference(ramp_s: float) -> dict:
     """Hold 1 mm, then at 4 s a step (ramp_s = 0) or a ramp of ramp_s seconds to 7 mm (§8)."""
     if ramp_s <= 0.0:
         return {"kind": "step", "t1_s": 0.0, "level1_m": 1e-3, "t2_s": EFFICIENCY_HOLD_S, "level2_m": 7e-3}
-    return {"kind": "ramp", "t1_s": 0.0, "level1_m": 1e-3, "d1_s": 0.5, "t2_s": EFFICIENCY_HOLD_S, "level2_m": 7e-3, "d2_s": ramp_s}
+    return {
+        "kind": "ramp",
+        "t1_s": 0.0,
+        "level1_m": 1e-3,
+        "d1_s": 0.5,
+        "t2_s": EFFICIENCY_HOLD_S,
+        "level2_m": 7e-3,
+        "d2_s": ramp_s,
+    }
 
 
-def run_chapter_8(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = DEFAULT_SEEDS, cases: Sequence[tuple] = CHAPTER_8_CASES, noise_m: float = EVAL_NOISE_M) -> None:
+def run_chapter_8(
+    entries: Sequence[PolicyEntry],
+    results: Results,
+    seeds: Sequence[int] = DEFAULT_SEEDS,
+    cases: Sequence[tuple] = CHAPTER_8_CASES,
+    noise_m: float = EVAL_NOISE_M,
+) -> None:
     for label, preset_name, ramp_s, _ in cases:
         for entry in entries:
             trace = rollout(
-                entry, model=preset_name, reference=efficiency_reference(ramp_s),
-                seconds=EFFICIENCY_HOLD_S + EFFICIENCY_AFTER_S, seeds=seeds, noise_m=noise_m,
+                entry,
+                model=preset_name,
+                reference=efficiency_reference(ramp_s),
+                seconds=EFFICIENCY_HOLD_S + EFFICIENCY_AFTER_S,
+                seeds=seeds,
+                noise_m=noise_m,
             )
-            results.records += _records("8", entry.name, label, "1 -> 7 mm", {"efficiency_percent": efficiency_percent(trace)})
+            results.records += _records(
+                "8", entry.name, label, "1 -> 7 mm", {"efficiency_percent": efficiency_percent(trace)}
+            )
             results.traces[("8", entry.name, label, "1 -> 7 mm")] = trace
 
 
@@ -456,11 +567,24 @@ def chapter_9_label(n: int, f: float, v: float) -> str:
     return f"{n} actuators, {f:g} Hz, {v:g} V"
 
 
-def run_chapter_9(entries: Sequence[PolicyEntry], results: Results, conditions: Sequence[tuple[int, float, float]] | None = None, seeds: Sequence[int] = (0,), noise_m: float = EVAL_NOISE_M) -> None:
+def run_chapter_9(
+    entries: Sequence[PolicyEntry],
+    results: Results,
+    conditions: Sequence[tuple[int, float, float]] | None = None,
+    seeds: Sequence[int] = (0,),
+    noise_m: float = EVAL_NOISE_M,
+) -> None:
     """Multiplexed step of 3 mm (report's step size unstated; see sma_gym.fidelity)."""
     for n, f, v in conditions or chapter_9_conditions():
         for entry in entries:
-            mux = PolicyEntry(entry.name, entry.make, env_id="SMAMultiplexed-v0", env_kwargs={**entry.env_kwargs, "n_actuators": n, "cycling_frequency_hz": f}, frame_stack=entry.frame_stack, kind=entry.kind)
+            mux = PolicyEntry(
+                entry.name,
+                entry.make,
+                env_id="SMAMultiplexed-v0",
+                env_kwargs={**entry.env_kwargs, "n_actuators": n, "cycling_frequency_hz": f},
+                frame_stack=entry.frame_stack,
+                kind=entry.kind,
+            )
             trace = rollout(
                 mux,
                 model=f"supply-{v:g}v",
@@ -471,8 +595,18 @@ def run_chapter_9(entries: Sequence[PolicyEntry], results: Results, conditions: 
             )
             rise, p2p = rise_and_oscillation(trace)
             label = chapter_9_label(n, f, v)
-            overshoot = np.maximum(0.0, trace["position_m"][..., 0].max(axis=0) - CHAPTER_9_STEP_M) if trace["position_m"].ndim == 3 else np.maximum(0.0, trace["position_m"].max(axis=0) - CHAPTER_9_STEP_M)
-            results.records += _records("9", entry.name, label, "3 mm step", {"rise_time_s": rise, "oscillation_p2p_m": p2p, "overshoot_m": overshoot})
+            overshoot = (
+                np.maximum(0.0, trace["position_m"][..., 0].max(axis=0) - CHAPTER_9_STEP_M)
+                if trace["position_m"].ndim == 3
+                else np.maximum(0.0, trace["position_m"].max(axis=0) - CHAPTER_9_STEP_M)
+            )
+            results.records += _records(
+                "9",
+                entry.name,
+                label,
+                "3 mm step",
+                {"rise_time_s": rise, "oscillation_p2p_m": p2p, "overshoot_m": overshoot},
+            )
             results.traces[("9", entry.name, label, "3 mm step")] = trace
 
 
@@ -518,5 +652,7 @@ def evaluate(
         # reading the position sensor under the same conditions.
         sensing = [baseline(PID, True), baseline(with_feedforward(VSC3), True)]
         with_sensor = [e for e in base if e.name in ("PID", "VSC3 + FF")]
-        run_table_6_1(sensing + sensing_agents + with_sensor, results, seeds, condition="self-sensing", model="forced-convection")
+        run_table_6_1(
+            sensing + sensing_agents + with_sensor, results, seeds, condition="self-sensing", model="forced-convection"
+        )
     return results

@@ -17,7 +17,7 @@ one internally), so the agent sees identical features in both.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from gymnasium import spaces
@@ -43,7 +43,7 @@ class HistoryFeatures:
         self.extra = len(DUTY_TIME_CONSTANTS_S) + 2
 
     @classmethod
-    def for_env(cls, n: int, env_id: str, env_kwargs: dict) -> "HistoryFeatures":
+    def for_env(cls, n: int, env_id: str, env_kwargs: dict) -> HistoryFeatures:
         """Features for ``n`` copies of the registered env ``env_id`` made with ``env_kwargs``
         (its feature names and control period)."""
         import gymnasium as gym
@@ -68,7 +68,9 @@ class HistoryFeatures:
         self.last_signal[m] = obs[m, self.i_signal]
         return self._augment(obs, np.where(m, 0.0, obs[:, self.i_signal] - self.last_signal))
 
-    def update(self, obs: np.ndarray, dones: np.ndarray, terminal: dict[int, np.ndarray] | None = None) -> tuple[np.ndarray, dict[int, np.ndarray]]:
+    def update(
+        self, obs: np.ndarray, dones: np.ndarray, terminal: dict[int, np.ndarray] | None = None
+    ) -> tuple[np.ndarray, dict[int, np.ndarray]]:
         """Features after a step, and the terminal observations of ended episodes with
         theirs. With same-step resets ``obs`` already holds the next episode's first
         observation where ``dones``; ``terminal`` holds the last one of the ended episode."""

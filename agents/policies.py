@@ -74,7 +74,9 @@ class ControllerPolicy:
             )
         return features[..., self._index["position"]] * scale
 
-    def predict(self, observation: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True):
+    def predict(
+        self, observation: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True
+    ):
         obs = np.asarray(observation, dtype=float)
         single = obs.ndim == 1
         batch = obs.reshape(1 if single else obs.shape[0], -1, self.k)
@@ -123,7 +125,9 @@ class ResistanceCalibration:
         return np.maximum(0.0, self.slope_m_per_ohm * np.asarray(resistance_ohm) + self.offset_m)
 
     @classmethod
-    def fit(cls, model: Any = "standard", seconds: float = 40.0, duty_range: tuple[float, float] = (0.05, 0.8)) -> "ResistanceCalibration":
+    def fit(
+        cls, model: Any = "standard", seconds: float = 40.0, duty_range: tuple[float, float] = (0.05, 0.8)
+    ) -> ResistanceCalibration:
         """Fit on a heating sweep: duty ramped slowly across ``duty_range`` with the position
         sensor still fitted (a lab calibration before the sensor is removed)."""
         from sma_gym import Simulator
@@ -148,7 +152,9 @@ class ResistanceCalibration:
 class SelfSensingPolicy(ControllerPolicy):
     """A report controller fed by the position estimated from resistance (no sensor)."""
 
-    def __init__(self, spec: ControllerSpec | str, env: Any, calibration: ResistanceCalibration | None = None, model: Any = None):
+    def __init__(
+        self, spec: ControllerSpec | str, env: Any, calibration: ResistanceCalibration | None = None, model: Any = None
+    ):
         super().__init__(spec, env)
         self.name = f"{self.spec.label} (self-sensing)"
         if calibration is None:

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from agents.controllers import ALL_SPECS
 from agents.evaluation import CHAPTER_8_CASES, TABLE_6_1, Results
@@ -49,18 +49,26 @@ def table_6_1_markdown(results: Results, condition: str = "standard") -> str:
     ]
     for p in _policies(results, "6.1"):
         try:
-            v = {m: results.value("6.1", p, condition, ref, m) for ref, m in (
-                ("step", "overshoot_m"), ("step", "steady_state_error_m"), ("sine", "max_error_heating_m"),
-                ("sine", "max_error_cooling_m"))}
+            v = {
+                m: results.value("6.1", p, condition, ref, m)
+                for ref, m in (
+                    ("step", "overshoot_m"),
+                    ("step", "steady_state_error_m"),
+                    ("sine", "max_error_heating_m"),
+                    ("sine", "max_error_cooling_m"),
+                )
+            }
         except KeyError:
             continue
         rep = TABLE_6_1.get(p) if condition == "standard" else None
-        def pair(key: str, idx: int, signed: bool = True) -> str:
+
+        def pair(key: str, idx: int, signed: bool = True, v: dict = v, rep: tuple | None = rep) -> str:
             sim = _mm(v[key], signed)
             if rep is None:
                 return sim
             ref = "osc." if rep[idx] is None else f"{rep[idx]:+.3f}" if signed else f"{rep[idx]:.3f}"
             return f"{sim} ({ref})"
+
         lines.append(
             f"| {p} | {pair('overshoot_m', 0, False)} | {pair('steady_state_error_m', 1)} | "
             f"{pair('max_error_heating_m', 2)} | {pair('max_error_cooling_m', 3)} | "
@@ -132,7 +140,13 @@ def chapter_9_markdown(results: Results) -> str:
         over = results.value("9", r.policy, r.condition, r.reference, "overshoot_m")
         rise = "never" if math.isinf(r.value) else f"{r.value:.2f}"
         lines.append(f"| {r.policy} | {r.condition} | {rise} | {p2p * 1e3:.3f} | {over * 1e3:.3f} |")
-    lines += ["", "Table 9.1: I/O counts", "", "| actuators | AI without | AI with | DO without | DO with |", "|---|---|---|---|---|"]
+    lines += [
+        "",
+        "Table 9.1: I/O counts",
+        "",
+        "| actuators | AI without | AI with | DO without | DO with |",
+        "|---|---|---|---|---|",
+    ]
     for n in (2, 4, 8, 16):
         c = io_counts(n)
         lines.append(
@@ -141,9 +155,15 @@ def chapter_9_markdown(results: Results) -> str:
     return "\n".join(lines)
 
 
-def _plot_responses(results: Results, experiment: str, condition: str, reference: str, policies: Sequence[str], title: str, out: Path) -> Path | None:
+def _plot_responses(
+    results: Results, experiment: str, condition: str, reference: str, policies: Sequence[str], title: str, out: Path
+) -> Path | None:
     """Position, error and duty of ``policies``; None (no file) when none of them ran there."""
-    traced = [(p, results.traces[(experiment, p, condition, reference)]) for p in policies if (experiment, p, condition, reference) in results.traces]
+    traced = [
+        (p, results.traces[(experiment, p, condition, reference)])
+        for p in policies
+        if (experiment, p, condition, reference) in results.traces
+    ]
     if not traced:
         return None
     fig, axes = new_figure(3, 1, size=(8, 8))
@@ -174,19 +194,69 @@ def write_report(results: Results, out: Path) -> list[Path]:
     groups = plot_groups(policies_61)
     if "standard" in conditions_61:
         for refname, fig in (("step", "6_2"), ("sine", "6_3")):
-            paths.append(_plot_responses(results, "6.1", "standard", refname, groups["without_ff"] + groups["agents"], f"{refname} response (cf. fig. {fig.replace('_', '.')})", out / f"fig{fig}_{refname}.png"))
+            paths.append(
+                _plot_responses(
+                    results,
+                    "6.1",
+                    "standard",
+                    refname,
+                    groups["without_ff"] + groups["agents"],
+                    f"{refname} response (cf. fig. {fig.replace('_', '.')})",
+                    out / f"fig{fig}_{refname}.png",
+                )
+            )
         for refname, fig in (("step", "6_5"), ("sine", "6_6")):
-            paths.append(_plot_responses(results, "6.1", "standard", refname, groups["with_ff"] + groups["agents"], f"{refname} response with feedforward (cf. fig. {fig.replace('_', '.')})", out / f"fig{fig}_{refname}_feedforward.png"))
+            paths.append(
+                _plot_responses(
+                    results,
+                    "6.1",
+                    "standard",
+                    refname,
+                    groups["with_ff"] + groups["agents"],
+                    f"{refname} response with feedforward (cf. fig. {fig.replace('_', '.')})",
+                    out / f"fig{fig}_{refname}_feedforward.png",
+                )
+            )
     if "self-sensing" in conditions_61:
         for refname in ("step", "sine"):
-            paths.append(_plot_responses(results, "6.1", "self-sensing", refname, groups["without_ff"] + groups["with_ff"] + groups["self_sensing"] + groups["agents"], f"self-sensing, {refname}", out / f"self_sensing_{refname}.png"))
+            paths.append(
+                _plot_responses(
+                    results,
+                    "6.1",
+                    "self-sensing",
+                    refname,
+                    groups["without_ff"] + groups["with_ff"] + groups["self_sensing"] + groups["agents"],
+                    f"self-sensing, {refname}",
+                    out / f"self_sensing_{refname}.png",
+                )
+            )
     if _policies(results, "7"):
         sections += [chapter_7_markdown(results), ""]
         conditions = sorted({r.condition for r in results.records if r.experiment == "7"})
         for c in conditions:
             slug = c.replace(" ", "_").replace(".", "")
-            paths.append(_plot_responses(results, "7", c, "step", _policies(results, "7"), f"step, {c} (cf. figs. 7.1-7.9)", out / f"chapter7_{slug}_step.png"))
-            paths.append(_plot_responses(results, "7", c, "sine", _policies(results, "7"), f"sine, {c} (cf. figs. 7.2-7.10)", out / f"chapter7_{slug}_sine.png"))
+            paths.append(
+                _plot_responses(
+                    results,
+                    "7",
+                    c,
+                    "step",
+                    _policies(results, "7"),
+                    f"step, {c} (cf. figs. 7.1-7.9)",
+                    out / f"chapter7_{slug}_step.png",
+                )
+            )
+            paths.append(
+                _plot_responses(
+                    results,
+                    "7",
+                    c,
+                    "sine",
+                    _policies(results, "7"),
+                    f"sine, {c} (cf. figs. 7.2-7.10)",
+                    out / f"chapter7_{slug}_sine.png",
+                )
+            )
     if _policies(results, "8"):
         sections += [chapter_8_markdown(results), ""]
     if _policies(results, "9"):
@@ -197,7 +267,9 @@ def write_report(results: Results, out: Path) -> list[Path]:
                 x = trace["position_m"]
                 x0 = x[:, 0, 0] if x.ndim == 3 else x[:, 0]
                 axes[0, 0].plot(trace.t, x0 * 1e3, label=f"{key[1]}: {key[2]}")
-        axes[0, 0].set(xlabel="time [s]", ylabel="position [mm]", title="Multiplexed step responses (cf. figs. 9.1-9.3)")
+        axes[0, 0].set(
+            xlabel="time [s]", ylabel="position [mm]", title="Multiplexed step responses (cf. figs. 9.1-9.3)"
+        )
         axes[0, 0].legend(fontsize=7)
         paths.append(save(fig, out / "fig9_multiplexed.png"))
     md = out / "evaluation.md"

@@ -25,8 +25,8 @@ sweep). The report's controllers run side by side in one vector env
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 import numpy as np
 
@@ -51,7 +51,17 @@ from agents.evaluation import (
     run_table_6_1,
 )
 from sma_gym import fidelity
-from sma_gym.fidelity import NO_OVERSHOOT_MM, SIGNIFICANT_CHANGE, VISIBLE_ERROR_MM, FidelityResult, Row, fmt, make_row, numeric_row, ratio
+from sma_gym.fidelity import (
+    NO_OVERSHOOT_MM,
+    SIGNIFICANT_CHANGE,
+    VISIBLE_ERROR_MM,
+    FidelityResult,
+    Row,
+    fmt,
+    make_row,
+    numeric_row,
+    ratio,
+)
 from sma_gym.report_targets import target, within_factor, within_tolerance
 
 
@@ -68,16 +78,28 @@ class RunPlan:
         return dict(self.chapter_9_sweep)[n]
 
 
-FULL = RunPlan(seeds=(0, 1, 2), sine_seconds=SINE_SECONDS, chapter_9_sweep=tuple((n, CHAPTER_9_FREQUENCIES) for n in (1, 8, 16)))
+FULL = RunPlan(
+    seeds=(0, 1, 2), sine_seconds=SINE_SECONDS, chapter_9_sweep=tuple((n, CHAPTER_9_FREQUENCIES) for n in (1, 8, 16))
+)
 QUICK = RunPlan(
     seeds=(0,),
     sine_seconds=SINE_WINDOW_S[0] + 10.0,
-    chapter_9_sweep=((1, (100.0, 500.0, 2000.0, 3000.0, 4000.0)), (8, (100.0, 500.0, 2000.0, 3000.0, 4000.0)), (16, (2000.0, 3000.0))),
+    chapter_9_sweep=(
+        (1, (100.0, 500.0, 2000.0, 3000.0, 4000.0)),
+        (8, (100.0, 500.0, 2000.0, 3000.0, 4000.0)),
+        (16, (2000.0, 3000.0)),
+    ),
 )
 """One seed, two sine periods (the first is the transient either way), a shorter chapter-9
 sweep (16 actuators, 25 s each, are the slowest runs)."""
 
-CH9_COUNT_CONDITIONS = ((1, 2000.0, 10.0), (8, 2000.0, 10.0), (16, 2000.0, 10.0), (16, 2000.0, 15.0), (16, 2000.0, 20.0))
+CH9_COUNT_CONDITIONS = (
+    (1, 2000.0, 10.0),
+    (8, 2000.0, 10.0),
+    (16, 2000.0, 10.0),
+    (16, 2000.0, 15.0),
+    (16, 2000.0, 20.0),
+)
 WIGGLE_WINDOW_S = 0.2
 """Oscillation = RMS of the position about its 0.2 s moving average (removes the 10 s sine)."""
 
@@ -91,7 +113,13 @@ def run_harness(plan: RunPlan) -> Results:
     """Table 6.1 and chapters 7-9 with the report's controllers."""
     results = Results()
     run_table_6_1(default_entries(), results, plan.seeds, sine_seconds=plan.sine_seconds)
-    run_chapter_7([baseline(s) for s in CHAPTER_7_SPECS], results, plan.seeds, CHAPTER_7_CONDITIONS[1:], sine_seconds=plan.sine_seconds)
+    run_chapter_7(
+        [baseline(s) for s in CHAPTER_7_SPECS],
+        results,
+        plan.seeds,
+        CHAPTER_7_CONDITIONS[1:],
+        sine_seconds=plan.sine_seconds,
+    )
     run_chapter_8([baseline(PID)], results, seeds=(0,), noise_m=0.0)
     run_chapter_9([baseline(PID)], results, conditions=chapter_9_conditions(plan), noise_m=0.0)
     return results
@@ -170,11 +198,18 @@ def table_6_1_rows(m: Metrics) -> list[Row]:
         if not target(ids[1]).numbers:  # "osc.": the statement is that it oscillates
             p2p = m(label, "oscillation_p2p_m")
             rows.append(
-                make_row(ids[1], f"{_sse_text(sse)} (p2p {fmt(p2p)} mm)", not math.isfinite(sse), f"{label}: {TABLE_6_1_HOW}",
-                         f"oscillates: > {OSCILLATION_P2P_M * 1e3:g} mm peak to peak over the last second")
+                make_row(
+                    ids[1],
+                    f"{_sse_text(sse)} (p2p {fmt(p2p)} mm)",
+                    not math.isfinite(sse),
+                    f"{label}: {TABLE_6_1_HOW}",
+                    f"oscillates: > {OSCILLATION_P2P_M * 1e3:g} mm peak to peak over the last second",
+                )
             )
         else:
-            rows.append(make_row(ids[1], f"{_sse_text(sse)} mm", target(ids[1]).within(sse), f"{label}: {TABLE_6_1_HOW}"))
+            rows.append(
+                make_row(ids[1], f"{_sse_text(sse)} mm", target(ids[1]).within(sse), f"{label}: {TABLE_6_1_HOW}")
+            )
         rows.append(numeric_row(ids[2], m(label, "max_error_heating_m", "sine"), "mm", f"{label}: {TABLE_6_1_HOW}"))
         rows.append(numeric_row(ids[3], m(label, "max_error_cooling_m", "sine"), "mm", f"{label}: {TABLE_6_1_HOW}"))
     return rows
@@ -188,50 +223,91 @@ def statement_rows(m: Metrics) -> list[Row]:
     cool = {label: m(label, "max_error_cooling_m", "sine") for label in TABLE_6_1}
     sine_sum = {label: abs(heat[label]) + abs(cool[label]) for label in TABLE_6_1}
     rows = [
-        make_row("Q1", f"overshoot {fmt(over['VSC3'])} mm, steady-state error {_sse_text(sse['VSC3'])} mm",
-                 over["VSC3"] <= NO_OVERSHOOT_MM and _sse_exists(sse["VSC3"]), "VSC3, Table 6.1 step",
-                 f"overshoot <= {NO_OVERSHOOT_MM:g} mm and |error| > {VISIBLE_ERROR_MM:g} mm"),
-        make_row("Q2", f"VSC4 error {_sse_text(sse['VSC4'])} mm (VSC3 {_sse_text(sse['VSC3'])}), overshoot {fmt(over['VSC4'])} mm (VSC3 {fmt(over['VSC3'])})",
-                 _sse_absent(sse["VSC4"]) and _sse_exists(sse["VSC3"]) and over["VSC4"] > over["VSC3"], "VSC4 against VSC3, Table 6.1 step",
-                 f"VSC4 |error| <= {VISIBLE_ERROR_MM:g} mm where VSC3's exceeds it, and VSC4 overshoots more"),
-        make_row("Q3", f"VSC3 {_sse_text(sse['VSC3'])} mm -> VSC3 + FF {_sse_text(sse['VSC3 + FF'])} mm",
-                 _sse_exists(sse["VSC3"]) and _sse_absent(sse["VSC3 + FF"]), "Table 6.1 step",
-                 f"VSC3 |error| > {VISIBLE_ERROR_MM:g} mm, with feedforward <= {VISIBLE_ERROR_MM:g} mm"),
-        make_row("Q4", " > ".join(f"{c} {fmt(over[c])}" for c in ("PID", "VSC2", "VSC4", "VSC3")) + " mm",
-                 _ordered([over[c] for c in ("PID", "VSC2", "VSC4", "VSC3")], increasing=False), "Table 6.1 step overshoots", "strict ordering"),
+        make_row(
+            "Q1",
+            f"overshoot {fmt(over['VSC3'])} mm, steady-state error {_sse_text(sse['VSC3'])} mm",
+            over["VSC3"] <= NO_OVERSHOOT_MM and _sse_exists(sse["VSC3"]),
+            "VSC3, Table 6.1 step",
+            f"overshoot <= {NO_OVERSHOOT_MM:g} mm and |error| > {VISIBLE_ERROR_MM:g} mm",
+        ),
+        make_row(
+            "Q2",
+            f"VSC4 error {_sse_text(sse['VSC4'])} mm (VSC3 {_sse_text(sse['VSC3'])}), overshoot {fmt(over['VSC4'])} mm (VSC3 {fmt(over['VSC3'])})",
+            _sse_absent(sse["VSC4"]) and _sse_exists(sse["VSC3"]) and over["VSC4"] > over["VSC3"],
+            "VSC4 against VSC3, Table 6.1 step",
+            f"VSC4 |error| <= {VISIBLE_ERROR_MM:g} mm where VSC3's exceeds it, and VSC4 overshoots more",
+        ),
+        make_row(
+            "Q3",
+            f"VSC3 {_sse_text(sse['VSC3'])} mm -> VSC3 + FF {_sse_text(sse['VSC3 + FF'])} mm",
+            _sse_exists(sse["VSC3"]) and _sse_absent(sse["VSC3 + FF"]),
+            "Table 6.1 step",
+            f"VSC3 |error| > {VISIBLE_ERROR_MM:g} mm, with feedforward <= {VISIBLE_ERROR_MM:g} mm",
+        ),
+        make_row(
+            "Q4",
+            " > ".join(f"{c} {fmt(over[c])}" for c in ("PID", "VSC2", "VSC4", "VSC3")) + " mm",
+            _ordered([over[c] for c in ("PID", "VSC2", "VSC4", "VSC3")], increasing=False),
+            "Table 6.1 step overshoots",
+            "strict ordering",
+        ),
     ]
     changes = {c: (over[c], over[c + " + FF"]) for c in ("PID", "VSC1", "VSC2")}
     rows.append(
-        make_row("Q5", ", ".join(f"{c} {fmt(a)} -> {fmt(b)} mm" for c, (a, b) in changes.items()),
-                 all(within_tolerance("overshoot", b, a) for a, b in changes.values()), "overshoot without -> with feedforward",
-                 "each within the overshoot tolerance (+-30 % or +-0.05 mm) of the one without")
+        make_row(
+            "Q5",
+            ", ".join(f"{c} {fmt(a)} -> {fmt(b)} mm" for c, (a, b) in changes.items()),
+            all(within_tolerance("overshoot", b, a) for a, b in changes.values()),
+            "overshoot without -> with feedforward",
+            "each within the overshoot tolerance (+-30 % or +-0.05 mm) of the one without",
+        )
     )
     rows.append(
-        make_row("Q6", ", ".join(f"{c} {heat[c]:+.3f} -> {heat[c + ' + FF']:+.3f} mm" for c in ("VSC2", "VSC3")),
-                 all(abs(heat[c + " + FF"]) < abs(heat[c]) for c in ("VSC2", "VSC3")), "sine heating error without -> with feedforward",
-                 "|error| smaller with feedforward, both")
+        make_row(
+            "Q6",
+            ", ".join(f"{c} {heat[c]:+.3f} -> {heat[c + ' + FF']:+.3f} mm" for c in ("VSC2", "VSC3")),
+            all(abs(heat[c + " + FF"]) < abs(heat[c]) for c in ("VSC2", "VSC3")),
+            "sine heating error without -> with feedforward",
+            "|error| smaller with feedforward, both",
+        )
     )
     rows.append(
-        make_row("Q7", f"VSC4 {cool['VSC4']:+.3f} -> {cool['VSC4 + FF']:+.3f} mm",
-                 abs(cool["VSC4 + FF"]) <= (1.0 - SIGNIFICANT_CHANGE) * abs(cool["VSC4"]), "sine cooling error without -> with feedforward",
-                 f"|error| at least {SIGNIFICANT_CHANGE:.0%} smaller")
+        make_row(
+            "Q7",
+            f"VSC4 {cool['VSC4']:+.3f} -> {cool['VSC4 + FF']:+.3f} mm",
+            abs(cool["VSC4 + FF"]) <= (1.0 - SIGNIFICANT_CHANGE) * abs(cool["VSC4"]),
+            "sine cooling error without -> with feedforward",
+            f"|error| at least {SIGNIFICANT_CHANGE:.0%} smaller",
+        )
     )
     rows.append(
-        make_row("Q8", f"PID heating {heat['PID']:+.3f} mm, cooling {cool['PID']:+.3f} mm",
-                 abs(heat["PID"]) < abs(cool["PID"]), "PID sine: the cooling error follows the top reversal",
-                 "|heating error| < |cooling error|")
+        make_row(
+            "Q8",
+            f"PID heating {heat['PID']:+.3f} mm, cooling {cool['PID']:+.3f} mm",
+            abs(heat["PID"]) < abs(cool["PID"]),
+            "PID sine: the cooling error follows the top reversal",
+            "|heating error| < |cooling error|",
+        )
     )
     rows.append(
-        make_row("Q9", f"VSC2 {cool['VSC2']:+.3f} mm, PID {cool['PID']:+.3f} mm", abs(cool["VSC2"]) < abs(cool["PID"]),
-                 "sine cooling errors", "|VSC2| < |PID|")
+        make_row(
+            "Q9",
+            f"VSC2 {cool['VSC2']:+.3f} mm, PID {cool['PID']:+.3f} mm",
+            abs(cool["VSC2"]) < abs(cool["PID"]),
+            "sine cooling errors",
+            "|VSC2| < |PID|",
+        )
     )
     best = min(sine_sum, key=sine_sum.get)
     rows.append(
-        make_row("Q10", f"VSC3 + FF: overshoot {fmt(over['VSC3 + FF'])} mm, error {_sse_text(sse['VSC3 + FF'])} mm, "
-                 f"|heat| + |cool| {fmt(sine_sum['VSC3 + FF'])} mm (best: {best} {fmt(sine_sum[best])})",
-                 over["VSC3 + FF"] <= NO_OVERSHOOT_MM and _sse_absent(sse["VSC3 + FF"]) and best == "VSC3 + FF",
-                 "§6.6: neither overshoot nor steady-state error, sine tracking not surpassed (Table 6.1's two sine errors summed)",
-                 f"overshoot <= {NO_OVERSHOOT_MM:g} mm, |error| <= {VISIBLE_ERROR_MM:g} mm, smallest sine error sum of the ten")
+        make_row(
+            "Q10",
+            f"VSC3 + FF: overshoot {fmt(over['VSC3 + FF'])} mm, error {_sse_text(sse['VSC3 + FF'])} mm, "
+            f"|heat| + |cool| {fmt(sine_sum['VSC3 + FF'])} mm (best: {best} {fmt(sine_sum[best])})",
+            over["VSC3 + FF"] <= NO_OVERSHOOT_MM and _sse_absent(sse["VSC3 + FF"]) and best == "VSC3 + FF",
+            "§6.6: neither overshoot nor steady-state error, sine tracking not surpassed (Table 6.1's two sine errors summed)",
+            f"overshoot <= {NO_OVERSHOOT_MM:g} mm, |error| <= {VISIBLE_ERROR_MM:g} mm, smallest sine error sum of the ten",
+        )
     )
     return rows
 
@@ -247,7 +323,12 @@ CONDITIONS = tuple(label for label, _ in CHAPTER_7_CONDITIONS)
 def _table_change_mm(m: Metrics, policy: str, condition: str) -> float:
     """Sum of the absolute changes of Table 6.1's four numbers from standard to ``condition``."""
     total = 0.0
-    for metric, reference in (("overshoot_m", "step"), ("steady_state_error_m", "step"), ("max_error_heating_m", "sine"), ("max_error_cooling_m", "sine")):
+    for metric, reference in (
+        ("overshoot_m", "step"),
+        ("steady_state_error_m", "step"),
+        ("max_error_heating_m", "sine"),
+        ("max_error_cooling_m", "sine"),
+    ):
         total += abs(m(policy, metric, reference, condition) - m(policy, metric, reference))
     return total if math.isfinite(total) else math.inf  # an oscillation counts as the largest change
 
@@ -258,30 +339,63 @@ def _chapter_7_fan_rows(m: Metrics) -> list[Row]:
     rows = []
     change = {c: _table_change_mm(m, c, fan) for c in TRIO + TRIO_FF}
     rows.append(
-        make_row("7a", ", ".join(f"{c} {fmt(v)}" for c, v in change.items()) + " mm",
-                 all(change[p] < min(change[c] for c in group[1:]) for p, group in (("PID", TRIO), ("PID + FF", TRIO_FF))),
-                 "fan: sum of the absolute changes of Table 6.1's four numbers from standard",
-                 "PID's change the smallest of the three, without and with feedforward")
+        make_row(
+            "7a",
+            ", ".join(f"{c} {fmt(v)}" for c, v in change.items()) + " mm",
+            all(change[p] < min(change[c] for c in group[1:]) for p, group in (("PID", TRIO), ("PID + FF", TRIO_FF))),
+            "fan: sum of the absolute changes of Table 6.1's four numbers from standard",
+            "PID's change the smallest of the three, without and with feedforward",
+        )
     )
     s = {c: m(c, "steady_state_error_m", condition=fan) for c in TRIO + TRIO_FF}
-    rows.append(make_row("7b", f"VSC3 {_sse_text(s['VSC3'])}, VSC3 + FF {_sse_text(s['VSC3 + FF'])} mm",
-                         _sse_exists(s["VSC3"]) and _sse_exists(s["VSC3 + FF"]), "fan, step", f"both |error| > {VISIBLE_ERROR_MM:g} mm"))
-    rows.append(make_row("7c", f"VSC4 {_sse_text(s['VSC4'])}, VSC4 + FF {_sse_text(s['VSC4 + FF'])} mm",
-                         _sse_exists(s["VSC4"]) and _sse_absent(s["VSC4 + FF"]), "fan, step",
-                         f"|error| > {VISIBLE_ERROR_MM:g} mm without feedforward, <= with"))
+    rows.append(
+        make_row(
+            "7b",
+            f"VSC3 {_sse_text(s['VSC3'])}, VSC3 + FF {_sse_text(s['VSC3 + FF'])} mm",
+            _sse_exists(s["VSC3"]) and _sse_exists(s["VSC3 + FF"]),
+            "fan, step",
+            f"both |error| > {VISIBLE_ERROR_MM:g} mm",
+        )
+    )
+    rows.append(
+        make_row(
+            "7c",
+            f"VSC4 {_sse_text(s['VSC4'])}, VSC4 + FF {_sse_text(s['VSC4 + FF'])} mm",
+            _sse_exists(s["VSC4"]) and _sse_absent(s["VSC4 + FF"]),
+            "fan, step",
+            f"|error| > {VISIBLE_ERROR_MM:g} mm without feedforward, <= with",
+        )
+    )
     fall = {c: m.change(c, "max_error_cooling_m", "sine", fan) for c in ("PID", "VSC4")}
-    rows.append(make_row("7d", ", ".join(f"{c} x{fmt(v)}" for c, v in fall.items()),
-                         all(v <= 1.0 - SIGNIFICANT_CHANGE for v in fall.values()) and fall["VSC4"] < fall["PID"],
-                         "fan against standard: |sine cooling error| ratio",
-                         f"both at most {1 - SIGNIFICANT_CHANGE:g}x, VSC4's the larger fall"))
+    rows.append(
+        make_row(
+            "7d",
+            ", ".join(f"{c} x{fmt(v)}" for c, v in fall.items()),
+            all(v <= 1.0 - SIGNIFICANT_CHANGE for v in fall.values()) and fall["VSC4"] < fall["PID"],
+            "fan against standard: |sine cooling error| ratio",
+            f"both at most {1 - SIGNIFICANT_CHANGE:g}x, VSC4's the larger fall",
+        )
+    )
     rise = {c: m.change(c, "max_error_heating_m", "sine", fan) for c in ("VSC3", "VSC4")}
-    rows.append(make_row("7e", ", ".join(f"{c} x{fmt(v)}" for c, v in rise.items()),
-                         all(v >= 1.0 + SIGNIFICANT_CHANGE for v in rise.values()),
-                         "fan against standard: |sine heating error| ratio", f"both at least {1 + SIGNIFICANT_CHANGE:g}x"))
+    rows.append(
+        make_row(
+            "7e",
+            ", ".join(f"{c} x{fmt(v)}" for c, v in rise.items()),
+            all(v >= 1.0 + SIGNIFICANT_CHANGE for v in rise.values()),
+            "fan against standard: |sine heating error| ratio",
+            f"both at least {1 + SIGNIFICANT_CHANGE:g}x",
+        )
+    )
     o = {c: m(c, "overshoot_m", condition=fan) for c in TRIO}
-    rows.append(make_row("7f", ", ".join(f"{c} {fmt(v)}" for c, v in o.items()) + " mm overshoot",
-                         o["PID"] > max(o["VSC3"], o["VSC4"]) + NO_OVERSHOOT_MM, "fan, step",
-                         f"PID's overshoot exceeds both VSCs' by more than {NO_OVERSHOOT_MM:g} mm"))
+    rows.append(
+        make_row(
+            "7f",
+            ", ".join(f"{c} {fmt(v)}" for c, v in o.items()) + " mm overshoot",
+            o["PID"] > max(o["VSC3"], o["VSC4"]) + NO_OVERSHOOT_MM,
+            "fan, step",
+            f"PID's overshoot exceeds both VSCs' by more than {NO_OVERSHOOT_MM:g} mm",
+        )
+    )
     return rows
 
 
@@ -291,20 +405,45 @@ def _chapter_7_low_supply_rows(m: Metrics) -> list[Row]:
     rows = []
     grow = {c: m(c, "rise_time_s", condition=low) - m(c, "rise_time_s") for c in TRIO}
     spread = max(grow.values()) - min(grow.values())
-    rows.append(make_row("7g", ", ".join(f"{c} +{fmt(v)} s" for c, v in grow.items()),
-                         all(math.isfinite(v) for v in grow.values()) and spread <= SIGNIFICANT_CHANGE * float(np.mean(list(grow.values()))),
-                         "5 V against standard: growth of the rise time to 90 %",
-                         f"the three growths within {SIGNIFICANT_CHANGE:.0%} of their mean of each other"))
-    rows.append(make_row("7h", f"PID overshoot {fmt(m('PID', 'overshoot_m'))} -> {fmt(m('PID', 'overshoot_m', condition=low))} mm",
-                         m("PID", "overshoot_m", condition=low) < m("PID", "overshoot_m"), "standard -> 5 V", "smaller at 5 V"))
+    rows.append(
+        make_row(
+            "7g",
+            ", ".join(f"{c} +{fmt(v)} s" for c, v in grow.items()),
+            all(math.isfinite(v) for v in grow.values())
+            and spread <= SIGNIFICANT_CHANGE * float(np.mean(list(grow.values()))),
+            "5 V against standard: growth of the rise time to 90 %",
+            f"the three growths within {SIGNIFICANT_CHANGE:.0%} of their mean of each other",
+        )
+    )
+    rows.append(
+        make_row(
+            "7h",
+            f"PID overshoot {fmt(m('PID', 'overshoot_m'))} -> {fmt(m('PID', 'overshoot_m', condition=low))} mm",
+            m("PID", "overshoot_m", condition=low) < m("PID", "overshoot_m"),
+            "standard -> 5 V",
+            "smaller at 5 V",
+        )
+    )
     s = {c: m(c, "steady_state_error_m", condition=low) for c in ("VSC3", "VSC4")}
-    rows.append(make_row("7i", ", ".join(f"{c} {_sse_text(v)}" for c, v in s.items()) + " mm",
-                         all(_sse_exists(v) for v in s.values()), "5 V, step", f"both |error| > {VISIBLE_ERROR_MM:g} mm"))
+    rows.append(
+        make_row(
+            "7i",
+            ", ".join(f"{c} {_sse_text(v)}" for c, v in s.items()) + " mm",
+            all(_sse_exists(v) for v in s.values()),
+            "5 V, step",
+            f"both |error| > {VISIBLE_ERROR_MM:g} mm",
+        )
+    )
     worse = {c: m.change(c, "rms_error_m", "sine", low) for c in TRIO}
-    rows.append(make_row("7j", ", ".join(f"{c} x{fmt(v)}" for c, v in worse.items()),
-                         worse["VSC3"] >= 2.0 and worse["VSC4"] >= 2.0 and 1.0 <= worse["PID"] <= 1.0 + 2 * SIGNIFICANT_CHANGE,
-                         "5 V against standard: sine RMS error ratio",
-                         f"'very bad': VSCs at least 2x; 'slightly worse': PID in [1, {1 + 2 * SIGNIFICANT_CHANGE:g}]x"))
+    rows.append(
+        make_row(
+            "7j",
+            ", ".join(f"{c} x{fmt(v)}" for c, v in worse.items()),
+            worse["VSC3"] >= 2.0 and worse["VSC4"] >= 2.0 and 1.0 <= worse["PID"] <= 1.0 + 2 * SIGNIFICANT_CHANGE,
+            "5 V against standard: sine RMS error ratio",
+            f"'very bad': VSCs at least 2x; 'slightly worse': PID in [1, {1 + 2 * SIGNIFICANT_CHANGE:g}]x",
+        )
+    )
     return rows
 
 
@@ -314,19 +453,42 @@ def _chapter_7_high_supply_rows(m: Metrics) -> list[Row]:
     rows = []
     o = {c: m(c, "overshoot_m", condition=high) for c in TRIO}
     vsc_ratio = ratio(o["PID"], float(np.mean([o["VSC3"], o["VSC4"]])))
-    rows.append(make_row("7k", ", ".join(f"{c} {fmt(v)}" for c, v in o.items()) + f" mm overshoot (PID / VSC mean {fmt(vsc_ratio)})",
-                         o["VSC3"] > 0.0 and o["VSC4"] > 0.0 and within_factor(vsc_ratio, 4.0, 1.5), "15 V, step",
-                         "VSCs overshoot (> 0) and PID / mean VSC overshoot within a factor 1.5 of 4"))
+    rows.append(
+        make_row(
+            "7k",
+            ", ".join(f"{c} {fmt(v)}" for c, v in o.items()) + f" mm overshoot (PID / VSC mean {fmt(vsc_ratio)})",
+            o["VSC3"] > 0.0 and o["VSC4"] > 0.0 and within_factor(vsc_ratio, 4.0, 1.5),
+            "15 V, step",
+            "VSCs overshoot (> 0) and PID / mean VSC overshoot within a factor 1.5 of 4",
+        )
+    )
     wig = {c: (m.wiggle_mm(c, high, True), m.wiggle_mm(c, high, False)) for c in TRIO}
-    errs = {c: (abs(m(c, "max_error_heating_m", "sine", high)), abs(m(c, "max_error_cooling_m", "sine", high))) for c in TRIO}
-    rows.append(make_row("7l", ", ".join(f"{c} {fmt(h)}/{fmt(k)}" for c, (h, k) in wig.items()) + " mm oscillation heating/cooling",
-                         all(h > 2.0 * k for h, k in wig.values()) and all(h > k for h, k in errs.values()),
-                         "15 V sine: RMS of x about its 0.2 s moving average while heating / cooling, and the max errors",
-                         "each: heating oscillation > 2x cooling's, and |heating error| > |cooling error|"))
-    deg = {c: (abs(m(c, "max_error_cooling_m", "sine", high)), abs(m(c + " + FF", "max_error_cooling_m", "sine", high))) for c in TRIO}
-    rows.append(make_row("7m", ", ".join(f"{c} {fmt(a)} -> {fmt(b)}" for c, (a, b) in deg.items()) + " mm",
-                         any(b > a for a, b in deg.values()), "15 V sine: |cooling error| without -> with feedforward",
-                         "larger with feedforward for at least one controller"))
+    errs = {
+        c: (abs(m(c, "max_error_heating_m", "sine", high)), abs(m(c, "max_error_cooling_m", "sine", high)))
+        for c in TRIO
+    }
+    rows.append(
+        make_row(
+            "7l",
+            ", ".join(f"{c} {fmt(h)}/{fmt(k)}" for c, (h, k) in wig.items()) + " mm oscillation heating/cooling",
+            all(h > 2.0 * k for h, k in wig.values()) and all(h > k for h, k in errs.values()),
+            "15 V sine: RMS of x about its 0.2 s moving average while heating / cooling, and the max errors",
+            "each: heating oscillation > 2x cooling's, and |heating error| > |cooling error|",
+        )
+    )
+    deg = {
+        c: (abs(m(c, "max_error_cooling_m", "sine", high)), abs(m(c + " + FF", "max_error_cooling_m", "sine", high)))
+        for c in TRIO
+    }
+    rows.append(
+        make_row(
+            "7m",
+            ", ".join(f"{c} {fmt(a)} -> {fmt(b)}" for c, (a, b) in deg.items()) + " mm",
+            any(b > a for a, b in deg.values()),
+            "15 V sine: |cooling error| without -> with feedforward",
+            "larger with feedforward for at least one controller",
+        )
+    )
     return rows
 
 
@@ -335,44 +497,91 @@ def _chapter_7_wire_rows(m: Metrics) -> list[Row]:
     thin, thick = CONDITIONS[4:6]
     rows = []
     same = {c: m.change(c, "rms_error_m", "sine", thin) for c in TRIO + TRIO_FF}
-    rows.append(make_row("7n", ", ".join(f"{c} x{fmt(v)}" for c, v in same.items()),
-                         all(abs(v - 1.0) <= SIGNIFICANT_CHANGE for v in same.values()), "0.2 mm wire against standard: sine RMS error ratio",
-                         f"each within +-{SIGNIFICANT_CHANGE:.0%}"))
+    rows.append(
+        make_row(
+            "7n",
+            ", ".join(f"{c} x{fmt(v)}" for c, v in same.items()),
+            all(abs(v - 1.0) <= SIGNIFICANT_CHANGE for v in same.values()),
+            "0.2 mm wire against standard: sine RMS error ratio",
+            f"each within +-{SIGNIFICANT_CHANGE:.0%}",
+        )
+    )
     vscs = ("VSC3", "VSC4", "VSC3 + FF", "VSC4 + FF")
     pid_over = m("PID", "overshoot_m", condition=thick)
-    ok = {c: (m(c, "overshoot_m", condition=thick), m(c, "oscillation_p2p_m", condition=thick), m(c, "rise_time_s", condition=thick)) for c in vscs}
-    rows.append(make_row("7o", ", ".join(f"{c} {fmt(o_)} mm/{fmt(p)} mm/{fmt(r)} s" for c, (o_, p, r) in ok.items()) + f" (PID overshoot {fmt(pid_over)} mm)",
-                         all(math.isfinite(r) and p <= OSCILLATION_P2P_M * 1e3 and o_ < pid_over for o_, p, r in ok.values()),
-                         "0.5 mm wire, step: overshoot / final p2p / rise time",
-                         f"each reaches 90 %, settles (p2p <= {OSCILLATION_P2P_M * 1e3:g} mm) and overshoots less than the PID"))
+    ok = {
+        c: (
+            m(c, "overshoot_m", condition=thick),
+            m(c, "oscillation_p2p_m", condition=thick),
+            m(c, "rise_time_s", condition=thick),
+        )
+        for c in vscs
+    }
+    rows.append(
+        make_row(
+            "7o",
+            ", ".join(f"{c} {fmt(o_)} mm/{fmt(p)} mm/{fmt(r)} s" for c, (o_, p, r) in ok.items())
+            + f" (PID overshoot {fmt(pid_over)} mm)",
+            all(math.isfinite(r) and p <= OSCILLATION_P2P_M * 1e3 and o_ < pid_over for o_, p, r in ok.values()),
+            "0.5 mm wire, step: overshoot / final p2p / rise time",
+            f"each reaches 90 %, settles (p2p <= {OSCILLATION_P2P_M * 1e3:g} mm) and overshoots less than the PID",
+        )
+    )
     po = (m("PID", "overshoot_m"), pid_over)
     pw = (m.wiggle_mm("PID", "standard", True), m.wiggle_mm("PID", thick, True))
-    rows.append(make_row("7p", f"overshoot {fmt(po[0])} -> {fmt(po[1])} mm, sine oscillation {fmt(pw[0])} -> {fmt(pw[1])} mm",
-                         po[1] > po[0] and pw[1] > pw[0], "PID, standard -> 0.5 mm wire (oscillation while heating, as 7r)",
-                         "both larger"))
+    rows.append(
+        make_row(
+            "7p",
+            f"overshoot {fmt(po[0])} -> {fmt(po[1])} mm, sine oscillation {fmt(pw[0])} -> {fmt(pw[1])} mm",
+            po[1] > po[0] and pw[1] > pw[0],
+            "PID, standard -> 0.5 mm wire (oscillation while heating, as 7r)",
+            "both larger",
+        )
+    )
     cool = {c: m(c, "max_error_cooling_m", "sine", thick) for c in TRIO}
-    rows.append(make_row("7q", ", ".join(f"{c} {v:+.3f}" for c, v in cool.items()) + " mm",
-                         all(abs(v) >= 1.0 for v in cool.values()), "0.5 mm wire, sine cooling error",
-                         "each |error| >= 1 mm (fig. 7.10's axis spans +-5 mm)"))
+    rows.append(
+        make_row(
+            "7q",
+            ", ".join(f"{c} {v:+.3f}" for c, v in cool.items()) + " mm",
+            all(abs(v) >= 1.0 for v in cool.values()),
+            "0.5 mm wire, sine cooling error",
+            "each |error| >= 1 mm (fig. 7.10's axis spans +-5 mm)",
+        )
+    )
     wig = {c: (m.wiggle_mm(c, "standard", True), m.wiggle_mm(c, thick, True)) for c in TRIO}
-    rows.append(make_row("7r", ", ".join(f"{c} {fmt(a)} -> {fmt(b)}" for c, (a, b) in wig.items()) + " mm",
-                         all(b >= 3.0 * a and b >= 0.05 for a, b in wig.values()),
-                         "sine, oscillation while heating (RMS about the 0.2 s moving average), standard -> 0.5 mm",
-                         "'heavy': each at least 3x standard and >= 0.05 mm"))
+    rows.append(
+        make_row(
+            "7r",
+            ", ".join(f"{c} {fmt(a)} -> {fmt(b)}" for c, (a, b) in wig.items()) + " mm",
+            all(b >= 3.0 * a and b >= 0.05 for a, b in wig.values()),
+            "sine, oscillation while heating (RMS about the 0.2 s moving average), standard -> 0.5 mm",
+            "'heavy': each at least 3x standard and >= 0.05 mm",
+        )
+    )
     return rows
 
 
 def _chapter_7_overall_rows(m: Metrics) -> list[Row]:
     """7s: every condition."""
     rows = []
-    better = all(m(v, "overshoot_m", condition=c) < m(p, "overshoot_m", condition=c)
-                 for c in CONDITIONS for p, vs in (("PID", ("VSC3", "VSC4")), ("PID + FF", ("VSC3 + FF", "VSC4 + FF"))) for v in vs)
+    better = all(
+        m(v, "overshoot_m", condition=c) < m(p, "overshoot_m", condition=c)
+        for c in CONDITIONS
+        for p, vs in (("PID", ("VSC3", "VSC4")), ("PID + FF", ("VSC3 + FF", "VSC4 + FF")))
+        for v in vs
+    )
     degrade = {c: float(np.mean([m.change(c, "rms_error_m", "sine", cond) for cond in CONDITIONS[1:]])) for c in TRIO}
-    rows.append(make_row("7s", "VSC overshoot below PID's in every condition: " + ("yes" if better else "no") + "; mean sine RMS ratio "
-                         + ", ".join(f"{c} x{fmt(v)}" for c, v in degrade.items()),
-                         better and min(degrade["VSC3"], degrade["VSC4"]) > degrade["PID"],
-                         "all six conditions, with and without feedforward; sine RMS error against standard over the five others",
-                         "VSC3/VSC4 overshoot less than the PID everywhere, and their sine degrades more"))
+    rows.append(
+        make_row(
+            "7s",
+            "VSC overshoot below PID's in every condition: "
+            + ("yes" if better else "no")
+            + "; mean sine RMS ratio "
+            + ", ".join(f"{c} x{fmt(v)}" for c, v in degrade.items()),
+            better and min(degrade["VSC3"], degrade["VSC4"]) > degrade["PID"],
+            "all six conditions, with and without feedforward; sine RMS error against standard over the five others",
+            "VSC3/VSC4 overshoot less than the PID everywhere, and their sine degrades more",
+        )
+    )
     return rows
 
 
@@ -399,11 +608,42 @@ def chapter_8_rows(results: Results) -> list[Row]:
     ids = [f"8{c}" for c in "abcdefg"]
     rows = [numeric_row(i, v, "%", f"{label}: {CH8_HOW}") for i, v, (label, *_) in zip(ids, eff, CHAPTER_8_CASES)]
     steps, ramps = eff[:4], eff[4:]
-    rows.append(make_row("8h", " < ".join(fmt(v) for v in steps) + " %", _ordered(steps), "steps at 5 / 7.5 / 10 / 15 V", "strict ordering 5 < 7.5 < 10 < 15 V"))
-    rows.append(make_row("8i", " > ".join(fmt(v) for v in ramps) + " %", _ordered(ramps, increasing=False), "ramps of 1 / 2 / 3 s at 10 V", "strict ordering"))
-    rows.append(make_row("8j", f"step 10 V {fmt(steps[2])} % vs ramps up to {fmt(max(ramps))} %", steps[2] > max(ramps), "10 V step against every 10 V ramp", "step above every ramp"))
-    rows.append(make_row("8l", f"largest {fmt(max(eff))} %", max(eff) <= EXPECTED_EFFICIENCY_PERCENT / 4.0,
-                         "every step and ramp", f"'far below' 4 %: at most a quarter of it ({EXPECTED_EFFICIENCY_PERCENT / 4:g} %), so also far below Carnot"))
+    rows.append(
+        make_row(
+            "8h",
+            " < ".join(fmt(v) for v in steps) + " %",
+            _ordered(steps),
+            "steps at 5 / 7.5 / 10 / 15 V",
+            "strict ordering 5 < 7.5 < 10 < 15 V",
+        )
+    )
+    rows.append(
+        make_row(
+            "8i",
+            " > ".join(fmt(v) for v in ramps) + " %",
+            _ordered(ramps, increasing=False),
+            "ramps of 1 / 2 / 3 s at 10 V",
+            "strict ordering",
+        )
+    )
+    rows.append(
+        make_row(
+            "8j",
+            f"step 10 V {fmt(steps[2])} % vs ramps up to {fmt(max(ramps))} %",
+            steps[2] > max(ramps),
+            "10 V step against every 10 V ramp",
+            "step above every ramp",
+        )
+    )
+    rows.append(
+        make_row(
+            "8l",
+            f"largest {fmt(max(eff))} %",
+            max(eff) <= EXPECTED_EFFICIENCY_PERCENT / 4.0,
+            "every step and ramp",
+            f"'far below' 4 %: at most a quarter of it ({EXPECTED_EFFICIENCY_PERCENT / 4:g} %), so also far below Carnot",
+        )
+    )
     return rows
 
 
@@ -429,34 +669,112 @@ def chapter_9_rows(results: Results, plan: RunPlan) -> list[Row]:
     over20 = metric(16, 2000.0, 20.0, "overshoot_m") * 1e3
     p2p20 = metric(16, 2000.0, 20.0, "oscillation_p2p_m") * 1e3
     rows = [
-        make_row("9e", f"largest applied duty = 1/n in {sum(duty_ok)} of {len(duty_ok)} runs", all(duty_ok), how + " (the PID asks for more during the rise)", "exactly 1/n"),
+        make_row(
+            "9e",
+            f"largest applied duty = 1/n in {sum(duty_ok)} of {len(duty_ok)} runs",
+            all(duty_ok),
+            how + " (the PID asks for more during the rise)",
+            "exactly 1/n",
+        ),
         numeric_row("9f", r16, "s", f"16 actuators, 10 V, 2 kHz: rise to 90 %; {how}"),
-        make_row("9g", f"{fmt(r16_15)} s at 15 V vs {fmt(r16)} s at 10 V", r16_15 <= 0.5 * r16, f"16 actuators, 2 kHz; {how}", "at most half the 10 V rise time"),
+        make_row(
+            "9g",
+            f"{fmt(r16_15)} s at 15 V vs {fmt(r16)} s at 10 V",
+            r16_15 <= 0.5 * r16,
+            f"16 actuators, 2 kHz; {how}",
+            "at most half the 10 V rise time",
+        ),
         numeric_row("9h", r16_20, "s", f"16 actuators, 20 V, 2 kHz: rise to 90 %; {how}"),
-        make_row("9i", f"{fmt(over20)} mm", over20 > NO_OVERSHOOT_MM, f"16 actuators, 20 V; {how}", f"overshoot > {NO_OVERSHOOT_MM:g} mm"),
-        make_row("9j", f"p2p {fmt(p2p20)} mm over the last 2 s", p2p20 > OSCILLATION_P2P_M * 1e3, f"16 actuators, 20 V; {how}", f"p2p > {OSCILLATION_P2P_M * 1e3:g} mm"),
-        make_row("9k", f"{fmt(r1)} < {fmt(r8)} < {fmt(r16)} s", _ordered([r1, r8, r16]), f"1, 8, 16 actuators at 10 V, 2 kHz; {how}", "strict ordering"),
+        make_row(
+            "9i",
+            f"{fmt(over20)} mm",
+            over20 > NO_OVERSHOOT_MM,
+            f"16 actuators, 20 V; {how}",
+            f"overshoot > {NO_OVERSHOOT_MM:g} mm",
+        ),
+        make_row(
+            "9j",
+            f"p2p {fmt(p2p20)} mm over the last 2 s",
+            p2p20 > OSCILLATION_P2P_M * 1e3,
+            f"16 actuators, 20 V; {how}",
+            f"p2p > {OSCILLATION_P2P_M * 1e3:g} mm",
+        ),
+        make_row(
+            "9k",
+            f"{fmt(r1)} < {fmt(r8)} < {fmt(r16)} s",
+            _ordered([r1, r8, r16]),
+            f"1, 8, 16 actuators at 10 V, 2 kHz; {how}",
+            "strict ordering",
+        ),
     ]
     freqs = plan.frequencies(1)
     low, high = freqs[0], freqs[-1]
     fast_p2p = max(p2p_mm(1, f) for f in freqs if f >= 1000.0)
-    rows.append(make_row("9l", f"1 actuator p2p {fmt(p2p_mm(1, low))} mm at {low:g} Hz vs <= {fmt(fast_p2p)} mm at >= 1 kHz",
-                         oscillates(1, low) and p2p_mm(1, low) > 5.0 * fast_p2p, f"p2p over the last 2 s; {how}",
-                         f"p2p > {OSCILLATION_P2P_M * 1e3:g} mm and > 5x the >= 1 kHz ones"))
+    rows.append(
+        make_row(
+            "9l",
+            f"1 actuator p2p {fmt(p2p_mm(1, low))} mm at {low:g} Hz vs <= {fmt(fast_p2p)} mm at >= 1 kHz",
+            oscillates(1, low) and p2p_mm(1, low) > 5.0 * fast_p2p,
+            f"p2p over the last 2 s; {how}",
+            f"p2p > {OSCILLATION_P2P_M * 1e3:g} mm and > 5x the >= 1 kHz ones",
+        )
+    )
     slow_f, high = plan.frequencies(8)[1], plan.frequencies(8)[-1]
     r_slow, r_fast = metric(8, slow_f, 10.0, "rise_time_s"), metric(8, high, 10.0, "rise_time_s")
-    rows.append(make_row("9m", f"8 actuators: {fmt(r_slow)} s at {slow_f:g} Hz, {fmt(r_fast)} s at {high:g} Hz",
-                         r_fast <= (1.0 - SIGNIFICANT_CHANGE) * r_slow, f"rise to 90 %; {how}", f"'substantially': at least {SIGNIFICANT_CHANGE:.0%} shorter"))
-    rows.append(make_row("9n", f"p2p {fmt(p2p_mm(1, 4000.0))} mm", not oscillates(1, 4000.0), f"1 actuator, 4 kHz; {how}", f"p2p <= {OSCILLATION_P2P_M * 1e3:g} mm"))
-    rows.append(make_row("9o", f"p2p {fmt(p2p_mm(8, 4000.0))} mm", oscillates(8, 4000.0), f"8 actuators, 4 kHz; {how}", f"p2p > {OSCILLATION_P2P_M * 1e3:g} mm"))
-    rows.append(make_row("9p", f"p2p {fmt(p2p_mm(16, 3000.0))} mm", oscillates(16, 3000.0), f"16 actuators, 3 kHz; {how}", f"p2p > {OSCILLATION_P2P_M * 1e3:g} mm"))
+    rows.append(
+        make_row(
+            "9m",
+            f"8 actuators: {fmt(r_slow)} s at {slow_f:g} Hz, {fmt(r_fast)} s at {high:g} Hz",
+            r_fast <= (1.0 - SIGNIFICANT_CHANGE) * r_slow,
+            f"rise to 90 %; {how}",
+            f"'substantially': at least {SIGNIFICANT_CHANGE:.0%} shorter",
+        )
+    )
+    rows.append(
+        make_row(
+            "9n",
+            f"p2p {fmt(p2p_mm(1, 4000.0))} mm",
+            not oscillates(1, 4000.0),
+            f"1 actuator, 4 kHz; {how}",
+            f"p2p <= {OSCILLATION_P2P_M * 1e3:g} mm",
+        )
+    )
+    rows.append(
+        make_row(
+            "9o",
+            f"p2p {fmt(p2p_mm(8, 4000.0))} mm",
+            oscillates(8, 4000.0),
+            f"8 actuators, 4 kHz; {how}",
+            f"p2p > {OSCILLATION_P2P_M * 1e3:g} mm",
+        )
+    )
+    rows.append(
+        make_row(
+            "9p",
+            f"p2p {fmt(p2p_mm(16, 3000.0))} mm",
+            oscillates(16, 3000.0),
+            f"16 actuators, 3 kHz; {how}",
+            f"p2p > {OSCILLATION_P2P_M * 1e3:g} mm",
+        )
+    )
     higher_oscillate = any(oscillates(n, f) for n in (8, 16) for f in plan.frequencies(n) if f > 2000.0)
     no_osc_2k = not any(oscillates(n, 2000.0) for n in (1, 8, 16))
-    faster_than_lower = all(metric(n, 2000.0, 10.0, "rise_time_s") <= metric(n, f, 10.0, "rise_time_s") for n in (1, 8, 16) for f in plan.frequencies(n) if f < 2000.0)
-    rows.append(make_row("9q", f"2 kHz oscillation-free: {no_osc_2k}; no slower than lower frequencies: {faster_than_lower}; "
-                         f"a higher frequency oscillates (8 or 16 actuators): {higher_oscillate}",
-                         no_osc_2k and faster_than_lower and higher_oscillate, f"1, 8, 16 actuators at 10 V; {how}",
-                         "an optimum: 2 kHz does not oscillate, rises no slower than any lower frequency, and going higher oscillates"))
+    faster_than_lower = all(
+        metric(n, 2000.0, 10.0, "rise_time_s") <= metric(n, f, 10.0, "rise_time_s")
+        for n in (1, 8, 16)
+        for f in plan.frequencies(n)
+        if f < 2000.0
+    )
+    rows.append(
+        make_row(
+            "9q",
+            f"2 kHz oscillation-free: {no_osc_2k}; no slower than lower frequencies: {faster_than_lower}; "
+            f"a higher frequency oscillates (8 or 16 actuators): {higher_oscillate}",
+            no_osc_2k and faster_than_lower and higher_oscillate,
+            f"1, 8, 16 actuators at 10 V; {how}",
+            "an optimum: 2 kHz does not oscillate, rises no slower than any lower frequency, and going higher oscillates",
+        )
+    )
     return rows
 
 

@@ -8,9 +8,10 @@ observations the evaluation harness gives it.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -127,12 +128,14 @@ def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
     if p.suffix != ".zip":
         p = p.with_suffix(".zip")
     if not p.is_file():
-        raise ValueError(f"policy = {str(path)!r}: no such file (expected a stable-baselines3 .zip written by train.py)")
+        raise ValueError(
+            f"policy = {str(path)!r}: no such file (expected a stable-baselines3 .zip written by train.py)"
+        )
     card = PolicyCard.load(p)
     import stable_baselines3  # after the card's checks: a bad card is refused without loading torch
 
     try:
         model = getattr(stable_baselines3, card.algo).load(str(p), device="cpu")
-    except Exception as err:  # noqa: BLE001 - SB3 raises many types for a corrupt zip
+    except Exception as err:
         raise ValueError(f"policy = {str(path)!r}: not a {card.algo} model ({err})") from None
     return AgentPolicy.from_card(model, card, name or card.name or p.stem)

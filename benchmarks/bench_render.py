@@ -48,7 +48,11 @@ def frames_per_second(steps: int, every: int = 1, full_redraw: bool = False) -> 
 def run(steps: int) -> dict[str, float]:
     fast = frames_per_second(steps)
     reference = frames_per_second(steps, every=20, full_redraw=True)
-    return {"frames/s (cached background, blitting)": fast, "frames/s (full redraw each frame)": reference, "ratio": fast / reference}
+    return {
+        "frames/s (cached background, blitting)": fast,
+        "frames/s (full redraw each frame)": reference,
+        "ratio": fast / reference,
+    }
 
 
 def main() -> int:

@@ -8,7 +8,7 @@ from sma_gym.simulator import Simulator
 
 __version__ = "0.1.0"
 
-from sma_gym.envs import ENV_IDS, register_envs  # noqa: E402
+from sma_gym.envs import ENV_IDS, register_envs
 
 register_envs()
 

@@ -259,7 +259,9 @@ def read_text(path: str | Path, max_bytes: int, what: str = "file") -> str:
             raise ValueError(f"{what} {str(p)!r}: is a folder, expected a file") from None
         raise ValueError(f"{what} {str(p)!r}: cannot read ({err.strerror or err})") from None
     if len(data) > max_bytes:
-        raise ValueError(f"{what} {str(p)!r}: larger than {_mib(max_bytes)}, the most this reader accepts; not read further")
+        raise ValueError(
+            f"{what} {str(p)!r}: larger than {_mib(max_bytes)}, the most this reader accepts; not read further"
+        )
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as err:
@@ -274,7 +276,9 @@ def read_json_object(path: str | Path, what: str = "file", max_bytes: int = MAX_
     try:
         data = json.loads(text)
     except json.JSONDecodeError as err:
-        raise ValueError(f"{what} {str(path)!r}: not valid JSON (line {err.lineno}, column {err.colno}: {err.msg})") from None
+        raise ValueError(
+            f"{what} {str(path)!r}: not valid JSON (line {err.lineno}, column {err.colno}: {err.msg})"
+        ) from None
     if not isinstance(data, dict):
         raise ValueError(f"{what} {str(path)!r}: expected a JSON object {{...}}, got a JSON {type(data).__name__}")
     return data

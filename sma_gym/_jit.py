@@ -42,7 +42,7 @@ def caching_available() -> bool:
         from numba.core.caching import FunctionCache
 
         FunctionCache(_probe)
-    except Exception:  # noqa: BLE001 - any failure to locate a cache means "no cache"
+    except Exception:
         warnings.warn(
             "sma_gym: no writable numba cache directory (package directory, NUMBA_CACHE_DIR and the "
             "user cache are read-only); compiling without an on-disk cache, so the first step of a "

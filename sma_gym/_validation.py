@@ -71,9 +71,7 @@ def require_range(
 
 
 def require_int_range(name: str, value: Any, lower: int, upper: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int,)) and not (
-        hasattr(value, "__index__")
-    ):
+    if isinstance(value, bool) or not isinstance(value, (int,)) and not (hasattr(value, "__index__")):
         raise ValueError(f"{name} = {_fmt(value)}: expected an integer in [{lower}, {upper}]")
     number = int(value)
     if number < lower or number > upper:

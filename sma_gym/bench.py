@@ -70,7 +70,7 @@ def main(as_json: bool = False, repeats: int = 3) -> int:
     if as_json:
         print(json.dumps(result))
     else:
-        print("simulator actuator-steps/s at a 1 kHz control step (best of %d)" % repeats)
+        print(f"simulator actuator-steps/s at a 1 kHz control step (best of {repeats})")
         for mode, rates in result.items():
             for n, rate in rates.items():
                 print(f"  {mode:9s} n = {n:>5s}: {rate:14,.0f}")

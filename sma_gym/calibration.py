@@ -72,8 +72,6 @@ def calibrate(h0: float, rho_a: float, rounds: int = 4) -> tuple[float, float]:
     return h0, rho_a
 
 
-
-
 # --------------------------------------------------------------------------------------
 # The real bench (shared/data/real): identify what its README leaves unknown
 # --------------------------------------------------------------------------------------
@@ -186,8 +184,10 @@ def calibrate_bench(fit_file: str = "step01.csv", check_file: str = "ramp01.csv"
         zero = zero_of(trace)
         before = bench_residuals(trace, [ModelConfig(base)], [zero])[:, 0]
         after = bench_residuals(trace, [model], [zero])[:, 0]
-        print(f"{trace.name}: RMS position error {np.sqrt(np.mean(before**2)) * 1e3:.3f} mm (preset guess) -> "
-              f"{np.sqrt(np.mean(after**2)) * 1e3:.3f} mm (fitted)")
+        print(
+            f"{trace.name}: RMS position error {np.sqrt(np.mean(before**2)) * 1e3:.3f} mm (preset guess) -> "
+            f"{np.sqrt(np.mean(after**2)) * 1e3:.3f} mm (fitted)"
+        )
     return values
 
 
@@ -220,10 +220,14 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
     held = ", ".join(f"{name} {rms['position'] * 1e3:.3f} mm" for name, rms in corrected["heldout"].items())
     found = ", ".join(result.effects_found) or "none"
     twin = ModelConfig(
-        replace(result.corrected_model.actuator, name="bench-0.5mm-ht", description=(
-            "Twin of the real bench of shared/data/real (0.5 mm HT Flexinol, 0.96 m, 24 V, 35 g sleigh, "
-            "0.07 N/mm spring), identified on its four shared runs by python -m sma_gym.calibration twin."
-        )),
+        replace(
+            result.corrected_model.actuator,
+            name="bench-0.5mm-ht",
+            description=(
+                "Twin of the real bench of shared/data/real (0.5 mm HT Flexinol, 0.96 m, 24 V, 35 g sleigh, "
+                "0.07 N/mm spring), identified on its four shared runs by python -m sma_gym.calibration twin."
+            ),
+        ),
         result.corrected_model.effects,
         notes=(
             f"Identified by python -m sma_gym.calibration twin from bench-0.5mm-ht-datasheet on {', '.join(TWIN_RUNS)} "

@@ -15,10 +15,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 COMMANDS_GROUP = "sma_gym.commands"
 """Entry-point group of the subcommands other packages add (each names a :class:`Command`)."""
@@ -82,7 +83,14 @@ def _diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cross_validate(args: argparse.Namespace, fit: Any, nominal: Any, effects: list[str] | None, out: Path, progress: Callable[[str], None]) -> int:
+def _cross_validate(
+    args: argparse.Namespace,
+    fit: Any,
+    nominal: Any,
+    effects: list[str] | None,
+    out: Path,
+    progress: Callable[[str], None],
+) -> int:
     """``sma-gym diagnose --cross-validate``: leave one run out, table and JSON into ``out``."""
     import json
 
@@ -113,7 +121,9 @@ def _print_diagnosis(result: Any, paths: dict[str, Path], as_json: bool) -> None
     print(f"verdict: {result.verdict}" + (f" ({effect})" if effect else ""))
     for data in ("fit", "heldout"):
         for output, before in result.gap_before[data].items():
-            print(f"  {data:8s} {output:10s} RMS {before:.4g} -> {result.gap_after[data].get(output, float('nan')):.4g}")
+            print(
+                f"  {data:8s} {output:10s} RMS {before:.4g} -> {result.gap_after[data].get(output, float('nan')):.4g}"
+            )
     print(f"report: {paths['report']}\ncorrected model: {paths['model']}")
 
 
@@ -124,7 +134,9 @@ def _synth(args: argparse.Namespace) -> int:
 
 
 def _bench_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--json", action="store_true", help='print {"averaged": {"1": rate, "4096": rate}, "resolved": {...}}')
+    p.add_argument(
+        "--json", action="store_true", help='print {"averaged": {"1": rate, "4096": rate}, "resolved": {...}}'
+    )
     p.add_argument("--repeats", type=int, default=3, help="best of this many timings (default 3)")
 
 
@@ -132,7 +144,11 @@ def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("files", nargs="+", help="measured traces to fit (CSV, see docs/diagnosis.md: measured data)")
     p.add_argument("--heldout", nargs="+", help="measured traces never used for fitting")
     p.add_argument("--out", required=True, help="folder for the report, plots, JSON and corrected_model.json")
-    p.add_argument("--model", default="standard", help="nominal model: a preset or twin name or a model JSON file (default standard)")
+    p.add_argument(
+        "--model",
+        default="standard",
+        help="nominal model: a preset or twin name or a model JSON file (default standard)",
+    )
     p.add_argument("--effects", help="comma-separated subset of effects to consider (default: all)")
     p.add_argument(
         "--max-rounds",
@@ -156,7 +172,9 @@ def _synth_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--excitation", default="steps", choices=("steps", "ramps", "sine", "chirp", "random"))
     p.add_argument("--duration", type=float, default=60.0, help="seconds (default 60)")
     p.add_argument("--model", default="standard", help="nominal model: preset name or model JSON file")
-    p.add_argument("--perturb", type=float, default=0.05, help="relative perturbation of the nominal parameters (default 0.05)")
+    p.add_argument(
+        "--perturb", type=float, default=0.05, help="relative perturbation of the nominal parameters (default 0.05)"
+    )
     p.add_argument("--position-noise", type=float, default=5e-6, help="m (default 5e-6)")
     p.add_argument("--position-resolution", type=float, default=1e-6, help="m (default 1e-6)")
     p.add_argument("--resistance-noise", type=float, default=2e-3, help="ohm (default 2e-3)")
@@ -190,7 +208,12 @@ BUILTIN_COMMANDS = (
         _diagnose,
         description="sma-gym diagnose FIT.csv [FIT2.csv ...] [--heldout HELD.csv ...] --out DIR",
     ),
-    Command("synth", "write a synthetic measured trace with a hidden effect (labels in a separate file)", _synth_arguments, _synth),
+    Command(
+        "synth",
+        "write a synthetic measured trace with a hidden effect (labels in a separate file)",
+        _synth_arguments,
+        _synth,
+    ),
 )
 
 
@@ -209,11 +232,13 @@ def plugin_commands() -> list[Command]:
     for entry in entry_points(group=COMMANDS_GROUP):
         try:
             command = entry.load()
-        except Exception as err:  # noqa: BLE001 - a broken plugin must not break the other commands
+        except Exception as err:
             found.append(_unavailable(entry.name, entry.value, err))
             continue
         if not isinstance(command, Command) or command.name != entry.name:
-            raise TypeError(f"entry point {entry.name} = {entry.value!r} in {COMMANDS_GROUP}: expected a sma_gym.cli.Command named {entry.name!r}")
+            raise TypeError(
+                f"entry point {entry.name} = {entry.value!r} in {COMMANDS_GROUP}: expected a sma_gym.cli.Command named {entry.name!r}"
+            )
         found.append(command)
     return found
 

@@ -40,9 +40,10 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -117,7 +118,9 @@ def make_row(target_id: str, simulated: str, within: bool | None, how: str = "",
 
 def numeric_row(target_id: str, simulated: float, unit: str = "", how: str = "") -> Row:
     """A row comparing one number (in the report's unit) with the target's first number."""
-    return make_row(target_id, f"{fmt(simulated)}{(' ' + unit) if unit else ''}", target(target_id).within(simulated), how)
+    return make_row(
+        target_id, f"{fmt(simulated)}{(' ' + unit) if unit else ''}", target(target_id).within(simulated), how
+    )
 
 
 def fmt(value: float, digits: int = 3) -> str:
@@ -231,7 +234,13 @@ def write_outputs(result: FidelityResult, out: str | None, as_json: bool) -> int
         for name, draw in result.plots.items():
             draw(folder / name)
     if as_json:
-        print(json.dumps({"rows": [r.as_dict() for r in result.rows], "summary": asdict(result.summary)}, indent=1, ensure_ascii=False))
+        print(
+            json.dumps(
+                {"rows": [r.as_dict() for r in result.rows], "summary": asdict(result.summary)},
+                indent=1,
+                ensure_ascii=False,
+            )
+        )
     else:
         print(format_table(result.rows))
         if out:
@@ -330,7 +339,9 @@ def voltage_steps(duration_s: float = 4.0, step_s: float = 1.0) -> dict[str, np.
     steps = int(round(duration_s * 1000))
     duty = np.zeros((steps, len(STEP_VOLTAGES)))
     duty[int(round(step_s * 1000)) :] = 1.0
-    out = sim.run(duty, record=("position_m", "temperature_c", "martensite_fraction", "stress_pa", "power_w", "spring_force_n"))
+    out = sim.run(
+        duty, record=("position_m", "temperature_c", "martensite_fraction", "stress_pa", "power_w", "spring_force_n")
+    )
     out["step_s"] = np.array(step_s)
     return out
 
@@ -358,9 +369,20 @@ def _voltage_step_motion_rows(data: dict[str, np.ndarray]) -> list[Row]:
     step = float(data["step_s"])
     after = t > step
     stroke = _stroke_m()
-    rows = [numeric_row("A1", float(x[:, 2].max()) * 1e3, "mm", "largest position of the 10 V open-loop step (end-of-travel cut on)")]
+    rows = [
+        numeric_row(
+            "A1", float(x[:, 2].max()) * 1e3, "mm", "largest position of the 10 V open-loop step (end-of-travel cut on)"
+        )
+    ]
     k_on = int(round(step * 1000))  # row k ends at (k + 1) ms: the first step with duty 1
-    rows.append(numeric_row("A4", float(data["power_w"][k_on, 2]), "W", "electrical power in the first control step of the 10 V step (cold wire)"))
+    rows.append(
+        numeric_row(
+            "A4",
+            float(data["power_w"][k_on, 2]),
+            "W",
+            "electrical power in the first control step of the 10 V step (cold wire)",
+        )
+    )
     t10, t90 = transformation_temperatures(data)
     rows.append(
         make_row(
@@ -448,7 +470,11 @@ def _voltage_step_load_rows(data: dict[str, np.ndarray], cooling: dict[str, np.n
         )
     )
     carnot = 100.0 * (1.0 - (t10 + 273.15) / (t90 + 273.15))
-    rows.append(numeric_row("8k", carnot, "%", "1 - T(10 %)/T(90 %) in kelvin, from the simulated contraction start and end (A8)"))
+    rows.append(
+        numeric_row(
+            "8k", carnot, "%", "1 - T(10 %)/T(90 %) in kelvin, from the simulated contraction start and end (A8)"
+        )
+    )
     return rows
 
 
@@ -479,22 +505,38 @@ def fast_actuation_rows(data: dict[str, np.ndarray]) -> list[Row]:
     # Table 3.1's speed is a datasheet figure, stroke over actuation time (9.5 mm / 50 ms):
     # a mean speed while moving, not the peak of the velocity.
     stroke = _stroke_m()
-    speed = 0.8 * stroke / _crossing_time(data["time_s"][:, 0], data["position_m"][:, 0], 0.1 * stroke, 0.9 * stroke) * 1e3
+    speed = (
+        0.8 * stroke / _crossing_time(data["time_s"][:, 0], data["position_m"][:, 0], 0.1 * stroke, 0.9 * stroke) * 1e3
+    )
     peak = float(np.max(data["velocity_m_s"][:, 0])) * 1e3
     return [
         numeric_row("A6", actuation_time_ms(data), "ms", "duty 1 at 30 V from rest: time to 90 % of the stroke"),
-        numeric_row("A7", speed, "mm/s", f"the same 30 V actuation: mean speed from 10 % to 90 % of the stroke (peak {fmt(peak)} mm/s)"),
+        numeric_row(
+            "A7",
+            speed,
+            "mm/s",
+            f"the same 30 V actuation: mean speed from 10 % to 90 % of the stroke (peak {fmt(peak)} mm/s)",
+        ),
     ]
 
 
 def limit_row() -> Row:
     """Position never exceeds eps0*l0, even at 30 V with the end-of-travel cut disabled."""
     base = preset("standard")
-    models = [ModelConfig(base.with_changes(**{"driver.supply_voltage_v": v, "driver.end_of_travel_m": math.inf})) for v in (10.0, 20.0, 30.0)]
+    models = [
+        ModelConfig(base.with_changes(**{"driver.supply_voltage_v": v, "driver.end_of_travel_m": math.inf}))
+        for v in (10.0, 20.0, 30.0)
+    ]
     out = Simulator(models).run(np.ones(10000), record=("position_m",))
     peak_mm = float(out["position_m"].max()) * 1e3
     limit_mm = target("A2").numbers[0]
-    return make_row("A2", f"{fmt(peak_mm, 4)} mm", peak_mm <= limit_mm, "10, 20, 30 V, duty 1 for 10 s, end-of-travel cut disabled", f"<= {limit_mm:g} mm")
+    return make_row(
+        "A2",
+        f"{fmt(peak_mm, 4)} mm",
+        peak_mm <= limit_mm,
+        "10, 20, 30 V, duty 1 for 10 s, end-of-travel cut disabled",
+        f"<= {limit_mm:g} mm",
+    )
 
 
 # --------------------------------------------------------------------------------------
@@ -634,7 +676,12 @@ def resistance_fits(loop: dict[str, np.ndarray], column: int) -> dict[str, Any]:
     ph = np.polyfit(x[heat], r[heat], 1)
     pc = np.polyfit(x[cool], r[cool], 1)
     resid = r[heat] - np.polyval(ph, x[heat])
-    return {"heating": ph, "cooling": pc, "r2": float(1.0 - resid.var() / r[heat].var()), "residual_max": float(np.max(np.abs(resid)))}
+    return {
+        "heating": ph,
+        "cooling": pc,
+        "r2": float(1.0 - resid.var() / r[heat].var()),
+        "residual_max": float(np.max(np.abs(resid))),
+    }
 
 
 def resistance_rows(loop: dict[str, np.ndarray], first_rise: dict[str, np.ndarray]) -> list[Row]:
@@ -668,11 +715,23 @@ def _resistance_line_rows(fits: list[dict[str, Any]], first_rise: dict[str, np.n
     ph, pc = main_fit["heating"], main_fit["cooling"]
     rows = []
     rows.append(numeric_row("A14", float(np.polyval(ph, 7e-3)), "ohm", "heating fit of the 10 V loop at 7 mm"))
-    rows.append(make_row("A15", f"R^2 = {fmt(main_fit['r2'], 5)}", main_fit["r2"] >= 0.98, "straight line through the 10 V heating samples, 1-6.5 mm", "R^2 >= 0.98"))
+    rows.append(
+        make_row(
+            "A15",
+            f"R^2 = {fmt(main_fit['r2'], 5)}",
+            main_fit["r2"] >= 0.98,
+            "straight line through the 10 V heating samples, 1-6.5 mm",
+            "R^2 >= 0.98",
+        )
+    )
     xr = first_rise["position_m"][:, 0]
     rr = first_rise["resistance_measured_ohm"][:, 0]
     low = (xr < 1e-3) & np.isfinite(rr)
-    departure = ratio(float(np.max(np.abs(rr[low] - np.polyval(ph, xr[low])))), main_fit["residual_max"]) if low.any() else math.nan
+    departure = (
+        ratio(float(np.max(np.abs(rr[low] - np.polyval(ph, xr[low])))), main_fit["residual_max"])
+        if low.any()
+        else math.nan
+    )
     rows.append(
         make_row(
             "A16",
@@ -683,7 +742,15 @@ def _resistance_line_rows(fits: list[dict[str, Any]], first_rise: dict[str, np.n
         )
     )
     slope_ratio = ratio(float(pc[0]), float(ph[0]))
-    rows.append(make_row("A17", f"slope cooling / heating = {fmt(slope_ratio, 4)}", abs(slope_ratio - 1.0) >= 0.03, "fits of the 10 V loop", "differ by >= 3 % (>10x the fits' standard error)"))
+    rows.append(
+        make_row(
+            "A17",
+            f"slope cooling / heating = {fmt(slope_ratio, 4)}",
+            abs(slope_ratio - 1.0) >= 0.03,
+            "fits of the 10 V loop",
+            "differ by >= 3 % (>10x the fits' standard error)",
+        )
+    )
     grid = np.linspace(*FIT_BAND_M, 12)
     spreads = []
     for branch in ("heating", "cooling"):
@@ -725,7 +792,9 @@ SLOPE_FIT_M = (MOTION_MM * 1e-3, 5e-3)
 """Positions in fig. 6.4's fit: the wire has moved, up to the figure's 5 mm."""
 
 
-def holding_curve(model: ModelConfig | str = "standard", duties: np.ndarray | None = None, hold_s: float = 60.0) -> dict[str, np.ndarray]:
+def holding_curve(
+    model: ModelConfig | str = "standard", duties: np.ndarray | None = None, hold_s: float = 60.0
+) -> dict[str, np.ndarray]:
     """Steady positions for constant duties from rest (heating branch) and from above (cooling).
 
     Heating branch: duty d from rest for ``hold_s``. Cooling branch: 3 s at a duty that
@@ -768,7 +837,12 @@ def holding_rows(curve: dict[str, np.ndarray]) -> list[Row]:
     at25 = holding_duty_at(curve, x25 * 1e-3)
     within = t.within(slope) and t.within(at1, d1) and t.within(at25, d25)
     return [
-        numeric_row("A26", holding_duty_at(curve, 5e-3), "", "open loop at 10 V, constant duty from rest held 60 s (heating branch): the duty ending at 5 mm"),
+        numeric_row(
+            "A26",
+            holding_duty_at(curve, 5e-3),
+            "",
+            "open loop at 10 V, constant duty from rest held 60 s (heating branch): the duty ending at 5 mm",
+        ),
         make_row(
             "A27",
             f"{fmt(slope)} /m ({fmt(at1)} at 1 mm, {fmt(at25)} at 2.5 mm)",
@@ -818,7 +892,12 @@ def analytic_rows() -> list[Row]:
     counted: list[float] = []
     for n in (2, 4, 8, 16):
         c = io_counts(n)
-        counted += [c["analog_inputs_without"], c["analog_inputs_with"], c["digital_outputs_without"], c["digital_outputs_with"]]
+        counted += [
+            c["analog_inputs_without"],
+            c["analog_inputs_with"],
+            c["digital_outputs_without"],
+            c["digital_outputs_with"],
+        ]
     # Mukherjee's matrix driver: 5 segments x 3 elements; lead wires = rows + columns, against
     # one per element plus ground without the matrix.
     rows_, cols_ = 5, 3
@@ -826,7 +905,10 @@ def analytic_rows() -> list[Row]:
     return [
         make_row(
             "9a-d",
-            "; ".join(f"{counted[4 * k]:g}/{counted[4 * k + 1]:g} {counted[4 * k + 2]:g}/{counted[4 * k + 3]:g}" for k in range(4)),
+            "; ".join(
+                f"{counted[4 * k]:g}/{counted[4 * k + 1]:g} {counted[4 * k + 2]:g}/{counted[4 * k + 3]:g}"
+                for k in range(4)
+            ),
             tuple(counted) == tuple(expected),
             "sma_gym.electrical.multiplexer.io_counts (the multiplexed env uses the same count)",
             "exact",

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -19,7 +20,9 @@ def plot_voltage_steps(data: dict[str, np.ndarray], out: Path) -> Path:
         axes[0, 1].plot(t, data["temperature_c"][:, j], label=f"{v:g} V")
         axes[1, 0].plot(t, data["martensite_fraction"][:, j], label=f"{v:g} V")
         axes[1, 1].plot(t, data["stress_pa"][:, j] / 1e6, label=f"{v:g} V")
-    axes[0, 0].set(xlabel="time [s]", ylabel="position [mm]", title="Open-loop voltage step (cf. fig. 5.2)", ylim=(0, 12))
+    axes[0, 0].set(
+        xlabel="time [s]", ylabel="position [mm]", title="Open-loop voltage step (cf. fig. 5.2)", ylim=(0, 12)
+    )
     axes[0, 1].set(xlabel="time [s]", ylabel="temperature [degC]", title="Temperature (cf. fig. 5.3)")
     axes[0, 1].axhspan(100, 160, color="0.9", label="fig. 5.3 peak range")
     axes[1, 0].set(xlabel="time [s]", ylabel="martensite fraction [-]")
@@ -43,7 +46,14 @@ def plot_resistance_loop(loop: dict[str, np.ndarray], first: dict[str, np.ndarra
     ax = axes[0, 0]
     ax.plot(loop["r_meas"][heat, 0], loop["x_meas"][heat, 0] * 1e3, ".", ms=1.5, label="heating")
     ax.plot(loop["r_meas"][cool, 0], loop["x_meas"][cool, 0] * 1e3, ".", ms=1.5, label="cooling")
-    ax.plot(first["resistance_measured_ohm"][:, 0], first["position_m"][:, 0] * 1e3, "-", lw=1, color="0.4", label="first rise from cold")
+    ax.plot(
+        first["resistance_measured_ohm"][:, 0],
+        first["position_m"][:, 0] * 1e3,
+        "-",
+        lw=1,
+        color="0.4",
+        label="first rise from cold",
+    )
     ax.set(xlabel="resistance [ohm]", ylabel="position [mm]", title="Position - resistance, 10 V (cf. figs. 4.5, 4.9)")
     ax.legend(fontsize=8)
     ax = axes[0, 1]
@@ -66,7 +76,13 @@ def plot_holding(curve: dict[str, np.ndarray], slope_per_m: float, out: Path) ->
     if np.isfinite(slope_per_m):
         ax.plot(xs, slope_per_m * xs * 1e-3, "C3:", label=f"simulated fit through the origin {slope_per_m:.3g} x")
     ax.plot([5], [0.06], "k*", ms=12, label="0.06 at 5 mm (A26)")
-    ax.set(xlabel="position [mm]", ylabel="duty cycle [-]", title="Holding duty at 10 V (cf. fig. 6.4)", xlim=(-0.5, 10), ylim=(0, 0.09))
+    ax.set(
+        xlabel="position [mm]",
+        ylabel="duty cycle [-]",
+        title="Holding duty at 10 V (cf. fig. 6.4)",
+        xlim=(-0.5, 10),
+        ylim=(0, 0.09),
+    )
     ax.legend(fontsize=8)
     return save(fig, out)
 
@@ -88,12 +104,16 @@ def plot_efficiency(runs, cases: Sequence[tuple], out: Path) -> Path:
     for label in labels:
         trace = runs.traces[("8", "PID", label, "1 -> 7 mm")]
         ax.plot(trace.t - 4.0, trace["position_m"][:, 0] * 1e3, label=label)
-    ax.set(xlabel="time from step [s]", ylabel="position [mm]", xlim=(-0.5, 4), title="PID strokes (cf. figs. 8.1, 8.2)")
+    ax.set(
+        xlabel="time from step [s]", ylabel="position [mm]", xlim=(-0.5, 4), title="PID strokes (cf. figs. 8.1, 8.2)"
+    )
     ax.legend(fontsize=7)
     return save(fig, out)
 
 
-def plot_multiplexed(trace_of: Callable[[int, float, float], Any], count_conditions, freq_conditions, out: Path) -> Path:
+def plot_multiplexed(
+    trace_of: Callable[[int, float, float], Any], count_conditions, freq_conditions, out: Path
+) -> Path:
     """Chapter 9: step responses against number of actuators, supply and cycling frequency.
 
     ``trace_of(n, f, v)`` returns the trace of n actuators cycled at f Hz on v volts.

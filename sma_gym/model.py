@@ -22,9 +22,10 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Mapping, Union
+from typing import Any
 
 from sma_gym._io import read_json_object, write_json
 from sma_gym.effects import EffectSet, EffectSetting
@@ -53,11 +54,11 @@ class ModelConfig:
         active = [s.name for s in self.effects.active()]
         return self.actuator.name + ("+" + "+".join(active) if active else "")
 
-    def with_effect(self, name: str, values: Mapping[str, float], form: str = "default") -> "ModelConfig":
+    def with_effect(self, name: str, values: Mapping[str, float], form: str = "default") -> ModelConfig:
         """Copy with one effect set (replacing an earlier setting of the same effect)."""
         return replace(self, effects=self.effects.with_setting(EffectSetting(name, dict(values), form)))
 
-    def with_actuator(self, **changes: Any) -> "ModelConfig":
+    def with_actuator(self, **changes: Any) -> ModelConfig:
         """Copy with actuator fields changed (``"driver.supply_voltage_v": 15.0``, ...)."""
         return replace(self, actuator=self.actuator.with_changes(**changes))
 
@@ -73,7 +74,7 @@ class ModelConfig:
         }
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any], *, source: str = "model configuration") -> "ModelConfig":
+    def from_dict(cls, data: Mapping[str, Any], *, source: str = "model configuration") -> ModelConfig:
         if not isinstance(data, Mapping):
             raise ValueError(f"{source}: expected a JSON object, got {type(data).__name__}")
         if data.get("format") != FORMAT_NAME:
@@ -96,14 +97,14 @@ class ModelConfig:
         return write_json(path, self.to_dict())
 
     @classmethod
-    def load(cls, path: str | os.PathLike[str]) -> "ModelConfig":
+    def load(cls, path: str | os.PathLike[str]) -> ModelConfig:
         """Read a model file; any problem is a ``ValueError`` naming the file (see :mod:`sma_gym._io`)."""
         source = Path(path)
         data = read_json_object(source, "model file")
         return cls.from_dict(data, source=f"model file {str(source)!r}")
 
 
-ModelSpec = Union[str, os.PathLike, ModelConfig, ActuatorParams, Mapping[str, Any], None]
+ModelSpec = str | os.PathLike | ModelConfig | ActuatorParams | Mapping[str, Any] | None
 
 
 def model_names() -> tuple[str, ...]:

@@ -7,10 +7,10 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from sma_gym._io import atomic_path  # noqa: E402
+from sma_gym._io import atomic_path
 
 
 def new_figure(rows: int, cols: int, size: tuple[float, float] = (10, 6)):

@@ -114,7 +114,9 @@ def within_tolerance(kind: str, simulated: float, reported: float) -> bool:
         return within_factor(simulated, reported, FIGURE_FACTOR)
     if kind == "figure slope":
         return within_factor(simulated, reported, FIGURE_SLOPE_FACTOR)
-    raise ValueError(f"tolerance kind = {kind!r}: not a numeric kind (expected one of {sorted(set(TOLERANCES) - {'qualitative'})})")
+    raise ValueError(
+        f"tolerance kind = {kind!r}: not a numeric kind (expected one of {sorted(set(TOLERANCES) - {'qualitative'})})"
+    )
 
 
 def within_factor(simulated: float, reported: float, factor: float) -> bool:

@@ -288,9 +288,7 @@ class Simulator:
             packed.append(row)
         self.params = np.ascontiguousarray(np.stack(packed, axis=0))
         self.state = np.zeros((self.n, L.N_STATE))
-        self._has_noise = bool(
-            np.any(self.params[:, [L.P_POS_NOISE, L.P_R_NOISE, L.P_I_NOISE, L.P_V_NOISE]] > 0.0)
-        )
+        self._has_noise = bool(np.any(self.params[:, [L.P_POS_NOISE, L.P_R_NOISE, L.P_I_NOISE, L.P_V_NOISE]] > 0.0))
         self._duty_buffer = np.zeros((1, self.n))
         self.reset()
 
@@ -343,8 +341,16 @@ class Simulator:
         # The first PWM period of actuator j starts after phase_j * period.
         s[which, L.S_PWM_TAU] = (1.0 - p[which, L.P_PWM_PHASE]) * p[which, L.P_PWM_PERIOD]
         s[which, L.S_R_TRUE] = wire_resistance(
-            x0, 1.0, t0, p[which, L.P_RHO_M], p[which, L.P_RHO_A], p[which, L.P_TCR_M], p[which, L.P_TCR_A],
-            p[which, L.P_T_REF_R], p[which, L.P_LENGTH], p[which, L.P_AREA],
+            x0,
+            1.0,
+            t0,
+            p[which, L.P_RHO_M],
+            p[which, L.P_RHO_A],
+            p[which, L.P_TCR_M],
+            p[which, L.P_TCR_A],
+            p[which, L.P_T_REF_R],
+            p[which, L.P_LENGTH],
+            p[which, L.P_AREA],
         )
         s[which, L.S_FORCE] = p[which, L.P_F_PRE] + p[which, L.P_K_SPRING] * x0
 
@@ -589,7 +595,9 @@ class Simulator:
             "spring": spring,
             "dissipated": s[:, L.S_E_DISSIPATED].copy(),
         }
-        out["residual"] = out["electrical"] + out["latent_released"] - out["convected"] - stored - out["mechanical_work"]
+        out["residual"] = (
+            out["electrical"] + out["latent_released"] - out["convected"] - stored - out["mechanical_work"]
+        )
         out["mechanical_residual"] = out["mechanical_work"] - kinetic - spring - out["dissipated"]
         return out
 

@@ -46,8 +46,9 @@ Everything is in SI units with temperatures in degC (as in :mod:`sma_gym.params`
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 import numba
 import numpy as np
@@ -97,10 +98,45 @@ N_Y = 12
 
 # Flat parameter vector (indices), filled by :func:`pack`.
 (
-    P_MASS, P_DAMP, P_K, P_FPRE, P_AREA, P_L0, P_DM, P_DA, P_ALPHA, P_EPS0,
-    P_AS, P_AF, P_MS, P_MF, P_CA, P_CM, P_MCP, P_LAMBDA_K, P_DH_M,
-    P_H0, P_H1, P_H2, P_TAMB, P_SURF, P_V, P_RS, P_RHOM, P_RHOA, P_TCRM, P_TCRA, P_TREF,
-    P_EOT, P_EOT_REL, P_TAU_F, P_TAU_LAG, P_ABBE, P_FC, P_PWM_PERIOD, P_SETTLE,
+    P_MASS,
+    P_DAMP,
+    P_K,
+    P_FPRE,
+    P_AREA,
+    P_L0,
+    P_DM,
+    P_DA,
+    P_ALPHA,
+    P_EPS0,
+    P_AS,
+    P_AF,
+    P_MS,
+    P_MF,
+    P_CA,
+    P_CM,
+    P_MCP,
+    P_LAMBDA_K,
+    P_DH_M,
+    P_H0,
+    P_H1,
+    P_H2,
+    P_TAMB,
+    P_SURF,
+    P_V,
+    P_RS,
+    P_RHOM,
+    P_RHOA,
+    P_TCRM,
+    P_TCRA,
+    P_TREF,
+    P_EOT,
+    P_EOT_REL,
+    P_TAU_F,
+    P_TAU_LAG,
+    P_ABBE,
+    P_FC,
+    P_PWM_PERIOD,
+    P_SETTLE,
 ) = range(39)
 N_P = 39
 
@@ -115,7 +151,9 @@ class Physics:
     effect_values: dict[str, float]
 
 
-def pack(params: ActuatorParams, effect: str | None = None, effect_values: Mapping[str, float] | None = None) -> Physics:
+def pack(
+    params: ActuatorParams, effect: str | None = None, effect_values: Mapping[str, float] | None = None
+) -> Physics:
     """Turn an :class:`ActuatorParams` and one hidden effect into the numbers the ODE reads."""
     if effect in (None, "none"):
         effect, values = None, {}
@@ -153,7 +191,7 @@ def pack(params: ActuatorParams, effect: str | None = None, effect_values: Mappi
     p[P_LAMBDA_K] = latent / w.specific_heat_j_kg_k  # temperature change per unit of xi [K]
     p[P_DH_M] = latent * mass  # latent heat of the whole wire [J per unit xi]
     p[P_H0] = c.h0_w_m2_k * h_scale
-    p[P_H1] = (values["h1_w_m2_k2"] * h_scale if effect == "convection_change" else 0.0)
+    p[P_H1] = values["h1_w_m2_k2"] * h_scale if effect == "convection_change" else 0.0
     p[P_H2] = c.h2_w_m2_k3 * h_scale
     p[P_TAMB] = c.ambient_temperature_c
     p[P_SURF] = math.pi * w.diameter_m * w.length_m
@@ -198,6 +236,7 @@ def spread_nodes(std_k: float, n: int = SPREAD_NODES) -> np.ndarray:
 # The ODE
 # ------------------------------------------------------------------------------------------
 
+
 @numba.njit(cache=True)
 def branch(t_eff_c: float, start_c: float, width_k: float, nodes: np.ndarray) -> tuple[float, float]:
     """Martensite fraction on a (spread-smoothed) cosine branch and its slope d/dT_eff [1/K].
@@ -236,7 +275,9 @@ def wire_power(duty: float, resistance: float, p: np.ndarray) -> float:
 
 
 @numba.njit(cache=True)
-def rhs(y: np.ndarray, duty: float, heating: bool, scale: float, p: np.ndarray, nodes: np.ndarray, dy: np.ndarray) -> None:
+def rhs(
+    y: np.ndarray, duty: float, heating: bool, scale: float, p: np.ndarray, nodes: np.ndarray, dy: np.ndarray
+) -> None:
     """dy/dt for the state y, with the duty (0 while the end-of-travel cut is open) and the
     branch memory (heating or cooling, and its proportional scale q or p) held fixed."""
     x, v, temp, sigma, xi = y[X], y[V], y[TEMP], y[SIGMA], y[XI]
@@ -418,10 +459,24 @@ def _run(
 
 
 RECORD_COLUMNS = (
-    "duty", "position_m", "velocity_m_s", "temperature_c", "stress_pa", "martensite_fraction",
-    "position_measured_m", "resistance_ohm", "resistance_measured_ohm", "current_measured_a",
-    "voltage_measured_v", "electrical_energy_j", "convected_energy_j", "latent_absorbed_j",
-    "mechanical_work_j", "heating", "cut", "power_w",
+    "duty",
+    "position_m",
+    "velocity_m_s",
+    "temperature_c",
+    "stress_pa",
+    "martensite_fraction",
+    "position_measured_m",
+    "resistance_ohm",
+    "resistance_measured_ohm",
+    "current_measured_a",
+    "voltage_measured_v",
+    "electrical_energy_j",
+    "convected_energy_j",
+    "latent_absorbed_j",
+    "mechanical_work_j",
+    "heating",
+    "cut",
+    "power_w",
 )
 
 
@@ -516,9 +571,20 @@ def simulate(
     noise = rng.standard_normal((duty_cmd.size, 4))
     out = np.empty((duty_cmd.size, len(RECORD_COLUMNS)))
     _run(
-        physics.vector, physics.spread_nodes_k, duty_cmd, reference, kp, duty_min,
-        int(round(REST_S / CONTROL_PERIOD_S)), int(substeps), CONTROL_PERIOD_S, noise,
-        float(position_noise_m), float(position_resolution_m), float(resistance_noise_ohm), out,
+        physics.vector,
+        physics.spread_nodes_k,
+        duty_cmd,
+        reference,
+        kp,
+        duty_min,
+        int(round(REST_S / CONTROL_PERIOD_S)),
+        int(substeps),
+        CONTROL_PERIOD_S,
+        noise,
+        float(position_noise_m),
+        float(position_resolution_m),
+        float(resistance_noise_ohm),
+        out,
     )
     result = {name: out[:, j] for j, name in enumerate(RECORD_COLUMNS)}
     result["time_s"] = (np.arange(duty_cmd.size) + 1) * CONTROL_PERIOD_S
@@ -571,10 +637,17 @@ def generate(
     if duty is not None:
         excitation = None
     run = simulate(
-        params, duty=duty, excitation=excitation, duration_s=duration_s, effect=effect,
-        effect_values=effect_values, position_noise_m=position_noise_m,
-        position_resolution_m=position_resolution_m, resistance_noise_ohm=resistance_noise_ohm,
-        electrical=electrical, seed=seed,
+        params,
+        duty=duty,
+        excitation=excitation,
+        duration_s=duration_s,
+        effect=effect,
+        effect_values=effect_values,
+        position_noise_m=position_noise_m,
+        position_resolution_m=position_resolution_m,
+        resistance_noise_ohm=resistance_noise_ohm,
+        electrical=electrical,
+        seed=seed,
     )
     n = run["duty"].size
     t = np.r_[0.0, run["time_s"]][::every]
@@ -600,7 +673,9 @@ def generate(
     labels = {
         "generator": "independent",
         "effect": None if effect in (None, "none") else effect,
-        "effect_values": {} if effect in (None, "none") else {**INDEPENDENT_EFFECTS[effect], **dict(effect_values or {})},
+        "effect_values": {}
+        if effect in (None, "none")
+        else {**INDEPENDENT_EFFECTS[effect], **dict(effect_values or {})},
         "excitation": "open-loop duty" if excitation is None else excitation,
         "duration_s": n * CONTROL_PERIOD_S,
         "sample_period_s": sample_period_s,

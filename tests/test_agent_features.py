@@ -80,7 +80,9 @@ def test_evaluation_policy_sees_exactly_what_training_saw(history, residual):
     training wrappers' features and compose actions identically, across an episode end."""
     from stable_baselines3 import SAC
 
-    venv = make_vec_env("SMATracking-v0", 2, KWARGS, 1, seed=5, history=history, residual=residual, max_episode_steps=120)
+    venv = make_vec_env(
+        "SMATracking-v0", 2, KWARGS, 1, seed=5, history=history, residual=residual, max_episode_steps=120
+    )
     model = SAC("MlpPolicy", venv, seed=0, device="cpu", learning_starts=10**9)
     agent = AgentPolicy(model, "agent", "SMATracking-v0", dict(KWARGS), history=history, residual=residual)
     k = len(gym.make("sma_gym:SMATracking-v0", **KWARGS).unwrapped.feature_names)

@@ -40,7 +40,9 @@ def v(results, policy, ref, metric, experiment="6.1", condition="standard"):
 def test_sb3_evaluate_policy_runs_a_baseline_unchanged_and_it_restarts_each_episode():
     from stable_baselines3.common.monitor import Monitor
 
-    env = Monitor(gym.make("sma_gym:SMATracking-v0", control_period_s=1e-3, max_episode_steps=1500, reference="report-step"))
+    env = Monitor(
+        gym.make("sma_gym:SMATracking-v0", control_period_s=1e-3, max_episode_steps=1500, reference="report-step")
+    )
     policy = ControllerPolicy("PID", env)
     rewards, _ = evaluate_policy(policy, env, n_eval_episodes=3, deterministic=True, return_episode_rewards=True)
     # Deterministic, noise-free env: identical episodes only if the controller's integrator
@@ -70,7 +72,9 @@ def test_t6_integral_action_removes_it_at_some_overshoot(table61):
 
 
 def test_t6_feedforward_removes_vsc3s_steady_state_error(table61):
-    assert abs(v(table61, "VSC3 + FF", "step", "steady_state_error_m")) < 0.3 * v(table61, "VSC3", "step", "steady_state_error_m")
+    assert abs(v(table61, "VSC3 + FF", "step", "steady_state_error_m")) < 0.3 * v(
+        table61, "VSC3", "step", "steady_state_error_m"
+    )
     assert v(table61, "VSC3 + FF", "step", "overshoot_m") < 0.05e-3
 
 
@@ -94,7 +98,13 @@ def chapter7():
         [baseline(s) for s in specs],
         results,
         seeds=(0,),
-        conditions=(("standard", "standard"), ("forced convection", "forced-convection"), ("5 V", "supply-5v"), ("15 V", "supply-15v"), ("0.5 mm wire", "wire-0.5mm")),
+        conditions=(
+            ("standard", "standard"),
+            ("forced convection", "forced-convection"),
+            ("5 V", "supply-5v"),
+            ("15 V", "supply-15v"),
+            ("0.5 mm wire", "wire-0.5mm"),
+        ),
     )
     return results
 
@@ -111,7 +121,8 @@ def test_t7_forced_cooling_gives_vsc3_a_steady_state_error_that_vsc4_with_feedfo
     # PID least affected (§7.1): no steady-state error, and its sine tracking degrades least.
     assert abs(c7(chapter7, "PID", "forced convection", "step", "steady_state_error_m")) < 0.03e-3
     ratio = {
-        p: c7(chapter7, p, "forced convection", "sine", "rms_error_m") / c7(chapter7, p, "standard", "sine", "rms_error_m")
+        p: c7(chapter7, p, "forced convection", "sine", "rms_error_m")
+        / c7(chapter7, p, "standard", "sine", "rms_error_m")
         for p in ("PID", "VSC3", "VSC4")
     }
     assert ratio["PID"] < min(ratio["VSC3"], ratio["VSC4"]), ratio
@@ -132,7 +143,9 @@ def test_t7_at_fifteen_volts_the_vscs_overshoot_a_quarter_of_the_pid(chapter7):
 def test_t7_the_half_millimetre_wire_is_too_slow_for_the_sine_while_cooling(chapter7):
     for p in ("PID", "VSC3", "VSC4"):
         assert c7(chapter7, p, "0.5 mm wire", "sine", "max_error_cooling_m") < -1.0e-3
-        assert c7(chapter7, p, "0.5 mm wire", "sine", "rms_error_m") > 3 * c7(chapter7, p, "standard", "sine", "rms_error_m")
+        assert c7(chapter7, p, "0.5 mm wire", "sine", "rms_error_m") > 3 * c7(
+            chapter7, p, "standard", "sine", "rms_error_m"
+        )
 
 
 def test_t8_more_multiplexed_actuators_rise_slower_and_twenty_volts_restores_speed():
@@ -153,7 +166,13 @@ def test_self_sensing_calibration_and_policy_track_without_a_position_sensor():
     cal = ResistanceCalibration.fit("forced-convection")
     assert cal.slope_m_per_ohm < 0 and cal.r_squared > 0.99
     results = Results()
-    run_table_6_1([baseline(PID, self_sensing=True), baseline(PID)], results, seeds=(0,), condition="fan", model="forced-convection")
+    run_table_6_1(
+        [baseline(PID, self_sensing=True), baseline(PID)],
+        results,
+        seeds=(0,),
+        condition="fan",
+        model="forced-convection",
+    )
     sensing = results.value("6.1", "PID (self-sensing)", "fan", "sine", "rms_error_m")
     sensor = results.value("6.1", "PID", "fan", "sine", "rms_error_m")
     assert sensing < 0.5e-3  # follows the sine from resistance alone
@@ -168,12 +187,20 @@ def test_a_position_controller_refuses_an_observation_without_position():
 
 
 def test_efficiency_of_a_stroke_that_never_arrives_is_not_a_number():
-    trace = rollout(baseline(VSC3), model="supply-5v", reference={"kind": "step", "t1_s": 0.0, "level1_m": 1e-3, "t2_s": 1.0, "level2_m": 7e-3}, seconds=3.0, seeds=(0,))
+    trace = rollout(
+        baseline(VSC3),
+        model="supply-5v",
+        reference={"kind": "step", "t1_s": 0.0, "level1_m": 1e-3, "t2_s": 1.0, "level2_m": 7e-3},
+        seconds=3.0,
+        seeds=(0,),
+    )
     assert np.isnan(efficiency_percent(trace, start_s=1.0, end_level_m=6.99e-3))[0]
 
 
 def test_cli_prints_every_metric_as_json_and_writes_the_report(tmp_path, capsys):
-    code = main(["evaluate", "--experiments", "8", "--baselines", "PID", "--seeds", "1", "--json", "--out", str(tmp_path)])
+    code = main(
+        ["evaluate", "--experiments", "8", "--baselines", "PID", "--seeds", "1", "--json", "--out", str(tmp_path)]
+    )
     records = json.loads(capsys.readouterr().out)
     assert code == 0
     assert {r["condition"] for r in records} >= {"step 5 V", "ramp 3 s"}
@@ -192,8 +219,21 @@ def test_cli_evaluates_a_saved_agent_beside_the_baselines(tmp_path, capsys):
     model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
     model.learn(64)
     path = tmp_path / "agent.zip"
-    save_policy(model, path, {"format": "sma-gym-policy", "algo": "PPO", "name": "tiny-agent", "env_id": "SMATracking-v0", "env_kwargs": {}, "frame_stack": 1})
-    code = main(["evaluate", "--experiments", "8", "--baselines", "PID", "--seeds", "1", "--json", "--policy", str(path)])
+    save_policy(
+        model,
+        path,
+        {
+            "format": "sma-gym-policy",
+            "algo": "PPO",
+            "name": "tiny-agent",
+            "env_id": "SMATracking-v0",
+            "env_kwargs": {},
+            "frame_stack": 1,
+        },
+    )
+    code = main(
+        ["evaluate", "--experiments", "8", "--baselines", "PID", "--seeds", "1", "--json", "--policy", str(path)]
+    )
     records = json.loads(capsys.readouterr().out)
     assert code == 0
     assert {"PID", "tiny-agent"} <= {r["policy"] for r in records}
@@ -216,8 +256,13 @@ def _synthetic_results(condition: str, policies: list[str]) -> Results:
             t = np.arange(1, int(seconds / 1e-2) + 1) * 1e-2
             r = np.where(t >= 0.5, 8e-3, 0.0) if reference == "step" else 4e-3 - 3e-3 * np.cos(2 * np.pi * 0.1 * t)
             x = r * (1.0 - 0.01 * (k + 1))
-            data = {key: np.zeros((t.size, 1)) for key in ("position_measured_m", "duty", "power_w", "spring_force_n", "temperature_c")}
-            data.update(position_m=x[:, None], reference_m=r[:, None], electrical_energy_j=np.cumsum(np.ones_like(t))[:, None])
+            data = {
+                key: np.zeros((t.size, 1))
+                for key in ("position_measured_m", "duty", "power_w", "spring_force_n", "temperature_c")
+            }
+            data.update(
+                position_m=x[:, None], reference_m=r[:, None], electrical_energy_j=np.cumsum(np.ones_like(t))[:, None]
+            )
             trace = Trace(t=t, data=data)
             results.records += _records("6.1", name, condition, reference, metrics(trace))
             results.traces[("6.1", name, condition, reference)] = trace
@@ -230,8 +275,10 @@ def test_report_of_a_self_sensing_evaluation_plots_the_agent_and_writes_no_empty
     policies = ["PID", "VSC3 + FF", "PID (self-sensing)", "VSC3 + FF (self-sensing)", "SAC agent"]
     groups = plot_groups(policies)
     assert groups == {
-        "without_ff": ["PID"], "with_ff": ["VSC3 + FF"],
-        "self_sensing": ["PID (self-sensing)", "VSC3 + FF (self-sensing)"], "agents": ["SAC agent"],
+        "without_ff": ["PID"],
+        "with_ff": ["VSC3 + FF"],
+        "self_sensing": ["PID (self-sensing)", "VSC3 + FF (self-sensing)"],
+        "agents": ["SAC agent"],
     }
     paths = write_report(_synthetic_results("self-sensing", policies), tmp_path)
     names = sorted(p.name for p in paths)
@@ -247,6 +294,11 @@ def test_report_of_a_standard_evaluation_has_the_reports_figures(tmp_path):
     from agents.report import write_report
 
     paths = write_report(_synthetic_results("standard", ["PID", "VSC3 + FF", "PPO agent"]), tmp_path)
-    assert {p.name for p in paths} >= {"fig6_2_step.png", "fig6_3_sine.png", "fig6_5_step_feedforward.png", "fig6_6_sine_feedforward.png"}
+    assert {p.name for p in paths} >= {
+        "fig6_2_step.png",
+        "fig6_3_sine.png",
+        "fig6_5_step_feedforward.png",
+        "fig6_6_sine_feedforward.png",
+    }
     md = (tmp_path / "evaluation.md").read_text()
     assert md.count("### Table 6.1") == 1 and "(0.757)" in md  # the report's PID overshoot beside ours

@@ -33,7 +33,16 @@ def alternative_form(effect: str) -> str:
 def synthetic(effect: str | None, seed: int, excitation: str, seconds: float, **kwargs):
     form = "default" if effect is None else alternative_form(effect)
     trace, labels = generate(
-        SynthSpec(ModelConfig(), effect=effect, form=form, excitation=excitation, duration_s=seconds, perturb=0.05, seed=seed, **kwargs)
+        SynthSpec(
+            ModelConfig(),
+            effect=effect,
+            form=form,
+            excitation=excitation,
+            duration_s=seconds,
+            perturb=0.05,
+            seed=seed,
+            **kwargs,
+        )
     )
     return trace
 
@@ -44,7 +53,11 @@ def test_every_effect_is_named_and_closes_the_heldout_gap(effect):
     held = synthetic(effect, 7, "sine", HELD_SECONDS)
     # One round: later rounds are tested below (two hidden effects); CI time is bounded.
     result = diagnose([fit], [held], ModelConfig(), max_rounds=1)
-    assert result.verdict == "effect", (result.verdict, result.effect, [(c["name"], round(c["heldout_gain"], 3), round(c["delta_bic"], 1)) for c in result.candidates])
+    assert result.verdict == "effect", (
+        result.verdict,
+        result.effect,
+        [(c["name"], round(c["heldout_gain"], 3), round(c["delta_bic"], 1)) for c in result.candidates],
+    )
     assert result.effect == effect
     held_before = result.gap_before["heldout"]["position"]
     held_refit = result.gap_nominal_refit["heldout"]["position"]
@@ -77,7 +90,15 @@ def test_two_hidden_effects_are_named_one_per_round_and_nothing_more():
     truth = ModelConfig().with_effect("sensor_lag", {"time_constant_s": 0.05}, "second-order")
 
     def trace(excitation, seconds):
-        spec = SynthSpec(truth, effect="coulomb_friction", form="stribeck", excitation=excitation, duration_s=seconds, perturb=0.05, seed=7)
+        spec = SynthSpec(
+            truth,
+            effect="coulomb_friction",
+            form="stribeck",
+            excitation=excitation,
+            duration_s=seconds,
+            perturb=0.05,
+            seed=7,
+        )
         return generate(spec)[0]
 
     result = diagnose([trace("steps", FIT_SECONDS)], [trace("sine", HELD_SECONDS)], ModelConfig())
@@ -110,12 +131,46 @@ def test_without_heldout_files_the_end_of_each_file_is_held_out():
 
 
 def test_cli_writes_report_model_and_json_and_the_env_runs_on_the_correction(tmp_path, capsys):
-    fit_path, fit_labels = write(SynthSpec(ModelConfig(), effect="latent_heat", form="asymmetric", excitation="steps", duration_s=FIT_SECONDS, perturb=0.05, seed=3), tmp_path / "fit.csv")
-    held_path, _ = write(SynthSpec(ModelConfig(), effect="latent_heat", form="asymmetric", excitation="chirp", duration_s=HELD_SECONDS, perturb=0.05, seed=3), tmp_path / "held.csv")
+    fit_path, fit_labels = write(
+        SynthSpec(
+            ModelConfig(),
+            effect="latent_heat",
+            form="asymmetric",
+            excitation="steps",
+            duration_s=FIT_SECONDS,
+            perturb=0.05,
+            seed=3,
+        ),
+        tmp_path / "fit.csv",
+    )
+    held_path, _ = write(
+        SynthSpec(
+            ModelConfig(),
+            effect="latent_heat",
+            form="asymmetric",
+            excitation="chirp",
+            duration_s=HELD_SECONDS,
+            perturb=0.05,
+            seed=3,
+        ),
+        tmp_path / "held.csv",
+    )
     before = {p: hashlib.sha256(p.read_bytes()).hexdigest() for p in (fit_path, held_path)}
     # diagnose never reads the labels: remove them to be sure.
     fit_labels.unlink()
-    code = main(["diagnose", str(fit_path), "--heldout", str(held_path), "--out", str(tmp_path / "out"), "--json", "--max-rounds", "1"])
+    code = main(
+        [
+            "diagnose",
+            str(fit_path),
+            "--heldout",
+            str(held_path),
+            "--out",
+            str(tmp_path / "out"),
+            "--json",
+            "--max-rounds",
+            "1",
+        ]
+    )
     result = json.loads(capsys.readouterr().out)
     assert code == 0
     assert result["verdict"] == "effect" and result["effect"] == "latent_heat"
@@ -154,12 +209,30 @@ def test_cli_reports_bad_files_with_exit_code_two_and_leaves_them_alone(tmp_path
 
 
 def test_synth_cli_writes_data_sidecar_and_separate_labels(tmp_path, capsys):
-    code = main(["synth", "--out", str(tmp_path / "s.csv"), "--effect", "coulomb_friction:force_n=0.8", "--form", "stribeck", "--excitation", "ramps", "--duration", "10"])
+    code = main(
+        [
+            "synth",
+            "--out",
+            str(tmp_path / "s.csv"),
+            "--effect",
+            "coulomb_friction:force_n=0.8",
+            "--form",
+            "stribeck",
+            "--excitation",
+            "ramps",
+            "--duration",
+            "10",
+        ]
+    )
     assert code == 0
     trace = load_trace(tmp_path / "s.csv")
     assert trace.duration_s == pytest.approx(10.0, abs=0.01)
     labels = json.loads((tmp_path / "s.labels.json").read_text())
-    assert labels["effect"] == "coulomb_friction" and labels["effect_values"] == {"force_n": 0.8} and labels["form"] == "stribeck"
+    assert (
+        labels["effect"] == "coulomb_friction"
+        and labels["effect_values"] == {"force_n": 0.8}
+        and labels["form"] == "stribeck"
+    )
     assert "effect" not in json.loads((tmp_path / "s.csv.json").read_text())
     assert main(["synth", "--out", str(tmp_path / "s.csv"), "--duration", "10"]) == 2  # no overwrite
     assert "--overwrite" in capsys.readouterr().err
@@ -183,9 +256,19 @@ def test_cross_validation_predicts_every_run_from_the_others(tmp_path, capsys):
     diagnosed on the other two, and the table says how well."""
     paths = []
     for k, excitation in enumerate(("steps", "sine", "ramps")):
-        spec = SynthSpec(ModelConfig(), effect="sensor_lag", excitation=excitation, duration_s=12.0, perturb=0.0, seed=20 + k)
+        spec = SynthSpec(
+            ModelConfig(), effect="sensor_lag", excitation=excitation, duration_s=12.0, perturb=0.0, seed=20 + k
+        )
         paths.append(write(spec, tmp_path / f"run{k}.csv")[0])
-    args = ["diagnose", *map(str, paths), "--cross-validate", "--effects", "sensor_lag,abbe_offset", "--max-rounds", "1"]
+    args = [
+        "diagnose",
+        *map(str, paths),
+        "--cross-validate",
+        "--effects",
+        "sensor_lag,abbe_offset",
+        "--max-rounds",
+        "1",
+    ]
     assert main([*args, "--out", str(tmp_path / "cv"), "--json"]) == 0
     cv = json.loads(capsys.readouterr().out)
     assert [f["held_out"] for f in cv["folds"]] == ["run0.csv", "run1.csv", "run2.csv"]
@@ -193,7 +276,9 @@ def test_cross_validation_predicts_every_run_from_the_others(tmp_path, capsys):
         assert fold["held_out"] not in fold["fitted"] and len(fold["fitted"]) == 2
         assert fold["effects_found"] == ["sensor_lag"]
         assert fold["position_rms_corrected_m"] < 0.5 * fold["position_rms_nominal_m"]
-    rows = [line for line in (tmp_path / "cv" / "cross_validation.md").read_text().splitlines() if line.startswith("| run")]
+    rows = [
+        line for line in (tmp_path / "cv" / "cross_validation.md").read_text().splitlines() if line.startswith("| run")
+    ]
     assert len(rows) == 3
     # Held-out files and a single file make no sense here.
     assert main(["diagnose", str(paths[0]), "--cross-validate", "--out", str(tmp_path / "x")]) == 2

@@ -33,7 +33,10 @@ def run_fresh(code: str) -> str:
 
 def test_native_vector_env_defaults_to_gymnasiums_next_step_autoreset():
     assert native().metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
-    assert gym.make_vec("CartPole-v1", num_envs=2, vectorization_mode="sync").metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    assert (
+        gym.make_vec("CartPole-v1", num_envs=2, vectorization_mode="sync").metadata["autoreset_mode"]
+        == AutoresetMode.NEXT_STEP
+    )
     with pytest.raises(ValueError, match="autoreset_mode"):
         native(autoreset_mode="Sometimes")
 
@@ -45,8 +48,12 @@ def test_every_autoreset_mode_matches_gymnasiums_sync_vector_env(env_id, mode):
     kwargs = NOISY if env_id == "SMASelfSensing-v0" else {}
     ours = native(env_id, n, max_episode_steps=steps, autoreset_mode=mode, **kwargs)
     theirs = gym.make_vec(
-        "sma_gym:" + env_id, num_envs=n, vectorization_mode="sync", max_episode_steps=steps,
-        vector_kwargs={"autoreset_mode": mode}, **kwargs,
+        "sma_gym:" + env_id,
+        num_envs=n,
+        vectorization_mode="sync",
+        max_episode_steps=steps,
+        vector_kwargs={"autoreset_mode": mode},
+        **kwargs,
     )
     assert ours.metadata["autoreset_mode"] == theirs.metadata["autoreset_mode"] == mode
     a, _ = ours.reset(seed=3)
@@ -163,7 +170,9 @@ def test_multiplexed_info_has_fixed_shape_entries_and_no_nested_descriptions():
     assert set(reset_info) == set(step_info)
     for info in (reset_info, step_info):
         for key, value in info.items():
-            assert isinstance(value, float) or (isinstance(value, np.ndarray) and value.shape == (3,) and value.dtype != object), key
+            assert isinstance(value, float) or (
+                isinstance(value, np.ndarray) and value.shape == (3,) and value.dtype != object
+            ), key
         json.dumps({k: np.asarray(v).tolist() for k, v in info.items()})
     assert len(env.unwrapped.reference_description()) == 3
 
@@ -187,7 +196,7 @@ def test_sb3_adapter_puts_monitor_episode_stats_in_infos(mode):
     obs = venv.reset()
     returns = np.zeros(n)
     episodes = 0
-    for k in range(2 * steps):
+    for _ in range(2 * steps):
         obs, rewards, dones, infos = venv.step(np.full((n, 1), 0.3, np.float32))
         returns += rewards
         for i in np.flatnonzero(dones):

@@ -151,7 +151,7 @@ def test_a_p_controller_reaches_the_step_reference_within_ten_seconds():
 def test_overheating_terminates_the_episode():
     env = make("SMATracking-v0", overheat_limit_c=60.0)
     env.reset(seed=0)
-    for k in range(1000):
+    for k in range(1000):  # noqa: B007 - k is read after the loop
         _, _, terminated, truncated, info = env.step(np.array([1.0], dtype=np.float32))
         if terminated:
             break
@@ -161,7 +161,14 @@ def test_overheating_terminates_the_episode():
 def test_info_carries_the_true_state_and_energy():
     env = make("SMATracking-v0")
     _, info = env.reset(seed=0)
-    for key in ("position_m", "temperature_c", "martensite_fraction", "stress_pa", "electrical_energy_j", "reference_m"):
+    for key in (
+        "position_m",
+        "temperature_c",
+        "martensite_fraction",
+        "stress_pa",
+        "electrical_energy_j",
+        "reference_m",
+    ):
         assert key in info
     energy = 0.0
     for _ in range(50):
@@ -282,8 +289,12 @@ def test_rgb_array_render_shows_the_episode():
 def test_vector_env_matches_single_envs_step_for_step(env_id, kwargs):
     n = 4
     venv = gym.make_vec(
-        "sma_gym:" + env_id, num_envs=n, vectorization_mode="vector_entry_point", max_episode_steps=50,
-        autoreset_mode=gym.vector.AutoresetMode.SAME_STEP, **kwargs,
+        "sma_gym:" + env_id,
+        num_envs=n,
+        vectorization_mode="vector_entry_point",
+        max_episode_steps=50,
+        autoreset_mode=gym.vector.AutoresetMode.SAME_STEP,
+        **kwargs,
     )
     assert venv.metadata["autoreset_mode"] == gym.vector.AutoresetMode.SAME_STEP
     singles = [make(env_id, max_episode_steps=50, **kwargs) for _ in range(n)]
@@ -317,7 +328,9 @@ def test_sb3_trains_on_the_native_vector_env_through_the_adapter():
     from stable_baselines3 import PPO
 
     venv = SB3VecEnv(
-        gym.make_vec("sma_gym:SMATracking-v0", num_envs=8, vectorization_mode="vector_entry_point", max_episode_steps=40)
+        gym.make_vec(
+            "sma_gym:SMATracking-v0", num_envs=8, vectorization_mode="vector_entry_point", max_episode_steps=40
+        )
     )
     model = PPO("MlpPolicy", venv, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
     model.learn(total_timesteps=512)
@@ -376,7 +389,11 @@ def test_the_documented_feature_table_is_the_observation_space(env_id):
     import inspect
 
     env = make(env_id).unwrapped
-    rows = [line.split("|")[1:-1] for line in inspect.getdoc(type(env)).splitlines() if line.startswith("| ") and "`" in line]
+    rows = [
+        line.split("|")[1:-1]
+        for line in inspect.getdoc(type(env)).splitlines()
+        if line.startswith("| ") and "`" in line
+    ]
     names = tuple(r[1].strip().strip("`") for r in rows)
     assert names == env.feature_names
     per_actuator = len(env.feature_names)

@@ -54,7 +54,20 @@ def test_targets_are_the_reports_125_rows_with_known_tolerances():
     assert ids[:2] == ["A1", "A2"] and "9a-d" in ids and ids[-1] == "9r"
     assert target("B4").numbers == (-0.097,) and target("B4").tolerance == "sine error"
     assert target("B6").tolerance == "qualitative"  # "osc."
-    assert {t.id for t in targets if t.calibration} == {"A3", "A10", "A11", "A14", "A25", "A26", "B1", "B14", "B17", "B37", "9a-d", "9e"}
+    assert {t.id for t in targets if t.calibration} == {
+        "A3",
+        "A10",
+        "A11",
+        "A14",
+        "A25",
+        "A26",
+        "B1",
+        "B14",
+        "B17",
+        "B37",
+        "9a-d",
+        "9e",
+    }
 
 
 def test_tolerance_convention():
@@ -68,7 +81,11 @@ def test_tolerance_convention():
     assert not within_tolerance("table", math.nan, 1.0)
     with pytest.raises(ValueError):
         within_tolerance("qualitative", 1.0, 1.0)
-    assert fidelity.ratio(1.0, 0.0) == math.inf and math.isnan(fidelity.ratio(0.0, 0.0)) and fidelity.ratio(3.0, 2.0) == 1.5
+    assert (
+        fidelity.ratio(1.0, 0.0) == math.inf
+        and math.isnan(fidelity.ratio(0.0, 0.0))
+        and fidelity.ratio(3.0, 2.0) == 1.5
+    )
 
 
 # --------------------------------------------------------------------------------------
@@ -108,7 +125,9 @@ def test_summary_counts_add_up(result):
     s = result.summary
     assert sum(s.counts.values()) == s.total == 125
     assert s.within == sum(bool(r.within_tolerance) for r in result.rows)
-    assert s.within_not_calibration == s.within - sum(bool(r.within_tolerance) for r in result.rows if r.status == "calibration")
+    assert s.within_not_calibration == s.within - sum(
+        bool(r.within_tolerance) for r in result.rows if r.status == "calibration"
+    )
     assert s.counts["pass"] <= s.within_not_calibration <= s.within
     line = s.line()
     assert f"pass {s.counts['pass']} / fail {s.counts['fail']}" in line and "total 125" in line
@@ -116,7 +135,9 @@ def test_summary_counts_add_up(result):
 
 
 def test_minimum_pass_count(result):
-    assert result.summary.counts["pass"] >= MIN_PASS_COUNT, fidelity.format_table([r for r in result.rows if r.status == "fail"])
+    assert result.summary.counts["pass"] >= MIN_PASS_COUNT, fidelity.format_table(
+        [r for r in result.rows if r.status == "fail"]
+    )
 
 
 def test_cli_prints_json_rows_and_writes_the_plots(tmp_path, capsys, monkeypatch, result):
@@ -125,7 +146,10 @@ def test_cli_prints_json_rows_and_writes_the_plots(tmp_path, capsys, monkeypatch
     data = json.loads(capsys.readouterr().out)
     assert code == (0 if result.summary.counts["fail"] == 0 else 1)
     assert [r["id"] for r in data["rows"]] == [t.id for t in load_targets()]
-    assert all(set(r) >= {"id", "quantity", "report", "simulated", "tolerance", "status", "within_tolerance"} for r in data["rows"])
+    assert all(
+        set(r) >= {"id", "quantity", "report", "simulated", "tolerance", "status", "within_tolerance"}
+        for r in data["rows"]
+    )
     assert data["summary"]["counts"] == result.summary.counts
     for name in PLOTS:
         path = tmp_path / name
@@ -181,7 +205,9 @@ def test_a_wrong_model_fails_its_rows():
     """A 5 V step faster than the 10 V one, and a wire that never moves, fail A21/A22/A1."""
     data = fidelity.voltage_steps()
     cooling = fidelity.cooling_runs(after_s=5.0)
-    swapped = {k: (v[:, ::-1] if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[1] == 3 else v) for k, v in data.items()}
+    swapped = {
+        k: (v[:, ::-1] if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[1] == 3 else v) for k, v in data.items()
+    }
     frozen = {**data, "position_m": np.zeros_like(data["position_m"])}
     by_id = {r.id: r for r in fidelity.voltage_step_rows(swapped, cooling)}
     assert by_id["A21"].status == "fail"

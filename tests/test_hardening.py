@@ -56,17 +56,20 @@ def test_import_and_help_work_on_a_read_only_install_without_a_cache_dir(tmp_pat
     try:
         code = (
             "import sma_gym, sma_gym._jit as j\n"
-            "assert sma_gym.__file__.startswith(%r), sma_gym.__file__\n"
+            f"assert sma_gym.__file__.startswith({str(site)!r}), sma_gym.__file__\n"
             "print(j.caching_available())\n"
             "from sma_gym.physics.resistance import wire_resistance\n"
             "print(wire_resistance(0.0, 1.0, 20.0, 1e-6, 1e-6, 0.0, 0.0, 20.0, 0.1, 1e-8))\n"
-        ) % str(site)
+        )
         out = _run([sys.executable, "-c", code], env=env, cwd=tmp_path)
         assert out.returncode == 0, out.stderr
         lines = out.stdout.split()
         assert lines[0] == "False" and float(lines[1]) > 0.0
-        help_ = _run([sys.executable, "-c", "import sys; from sma_gym.cli import main; sys.exit(main(['--help']))"],
-                     env=env, cwd=tmp_path)
+        help_ = _run(
+            [sys.executable, "-c", "import sys; from sma_gym.cli import main; sys.exit(main(['--help']))"],
+            env=env,
+            cwd=tmp_path,
+        )
         assert help_.returncode == 0, help_.stderr
         assert "usage: sma-gym" in help_.stdout
     finally:
@@ -85,7 +88,14 @@ def _tiny_model():
     return PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
 
 
-CARD = {"format": "sma-gym-policy", "algo": "PPO", "name": "tiny", "env_id": "SMATracking-v0", "env_kwargs": {}, "frame_stack": 1}
+CARD = {
+    "format": "sma-gym-policy",
+    "algo": "PPO",
+    "name": "tiny",
+    "env_id": "SMATracking-v0",
+    "env_kwargs": {},
+    "frame_stack": 1,
+}
 
 
 def test_train_refuses_a_non_empty_out_unless_overwrite_and_says_so_in_help(tmp_path):
@@ -291,7 +301,9 @@ def test_evaluate_checks_policies_and_experiments_before_the_work(tmp_path, caps
 # --- item 7: actions of the wrong shape or type ---------------------------------------------------
 
 
-@pytest.mark.parametrize("action", [np.zeros(2, np.float32), "0.5", np.zeros((1, 1), np.float32), np.zeros(0), [True], None])
+@pytest.mark.parametrize(
+    "action", [np.zeros(2, np.float32), "0.5", np.zeros((1, 1), np.float32), np.zeros(0), [True], None]
+)
 def test_single_env_rejects_wrong_actions_naming_the_shape(action):
     import gymnasium as gym
 
@@ -546,7 +558,11 @@ class _StepWorker:
     def __init__(self) -> None:
         env = {**os.environ, "PYTHONUNBUFFERED": "1"}
         self.proc = subprocess.Popen(
-            [sys.executable, "-c", _STEP_WORKER], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env,
+            [sys.executable, "-c", _STEP_WORKER],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+            env=env,
         )
         assert self.readline(240.0) == "ready"
 

@@ -45,12 +45,12 @@ import math
 import time
 from pathlib import Path
 
+import independent_sma as ind
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import independent_sma as ind
 from sma_gym.data import load_trace, write_trace
 from sma_gym.data.measured import DIAGNOSIS_MIN_ROWS
 from sma_gym.params import preset
@@ -88,6 +88,7 @@ def _rise_times_s(position_m: np.ndarray, final_m: float, start_index: int = 100
 # 0. Independence by construction, and names a benchmark can score
 # --------------------------------------------------------------------------------------
 
+
 def test_generator_imports_nothing_from_our_kernel() -> None:
     """The generator may read parameters and write the data format, nothing else of ours."""
     source = Path(ind.__file__).read_text()
@@ -106,8 +107,15 @@ def test_effect_names_and_parameters_match_the_project() -> None:
     of ``sma_gym.effects`` with the same parameter names, at a value inside its bounds."""
     from sma_gym.effects import EFFECTS
 
-    required = {"sensor_lag", "convection_change", "coulomb_friction", "supply_sag", "latent_heat",
-                "transformation_spread", "abbe_offset"}
+    required = {
+        "sensor_lag",
+        "convection_change",
+        "coulomb_friction",
+        "supply_sag",
+        "latent_heat",
+        "transformation_spread",
+        "abbe_offset",
+    }
     assert required <= set(ind.INDEPENDENT_EFFECTS)
     for name, values in ind.INDEPENDENT_EFFECTS.items():
         declared = {p.name: p for p in EFFECTS[name].parameters}
@@ -119,6 +127,7 @@ def test_effect_names_and_parameters_match_the_project() -> None:
 # --------------------------------------------------------------------------------------
 # 1. Physical sanity
 # --------------------------------------------------------------------------------------
+
 
 def test_at_rest_nothing_moves() -> None:
     run = ind.simulate(STANDARD, duty=np.zeros(5000))
@@ -200,8 +209,9 @@ def test_martensite_fraction_stays_in_range_and_reversals_never_jump() -> None:
 @settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**31 - 1), spread_k=st.floats(0.0, 20.0))
 def test_reversals_never_jump_for_any_duty_sequence_or_spread(seed: int, spread_k: float) -> None:
-    run = ind.simulate(STANDARD, duty=_switching_duty(seed, 6.0), effect="transformation_spread",
-                       effect_values={"spread_k": spread_k})
+    run = ind.simulate(
+        STANDARD, duty=_switching_duty(seed, 6.0), effect="transformation_spread", effect_values={"spread_k": spread_k}
+    )
     _check_xi_bounded_and_continuous(run)
 
 
@@ -217,6 +227,7 @@ def test_a_40_s_trace_takes_seconds() -> None:
 # --------------------------------------------------------------------------------------
 # 2. Independence check against our kernel
 # --------------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("voltage_v", [10.0, 5.0])
 def test_open_loop_step_has_the_kernels_character(voltage_v: float) -> None:
@@ -288,14 +299,16 @@ HOLD_DUTIES = (0.055, 0.06, 0.065, 0.07)
 @pytest.fixture(scope="module")
 def holding() -> dict[str, np.ndarray]:
     """Position [m] after 40 s at each constant duty of HOLD_DUTIES (rest for the first second)."""
+
     def final(run_fn, duty_value: float) -> float:
         duty = np.full(40000, duty_value)
         duty[:1000] = 0.0
         return float(run_fn(duty)["position_m"][-1])
 
     w = STANDARD.wire
-    shifted = STANDARD.with_changes(**{"wire.austenite_start_c": w.austenite_start_c - 3.75,
-                                       "wire.austenite_finish_c": w.austenite_finish_c - 3.75})
+    shifted = STANDARD.with_changes(
+        **{"wire.austenite_start_c": w.austenite_start_c - 3.75, "wire.austenite_finish_c": w.austenite_finish_c - 3.75}
+    )
     return {
         "kernel": np.array([final(_kernel, d) for d in HOLD_DUTIES]),
         "independent": np.array([final(lambda u: ind.simulate(STANDARD, duty=u), d) for d in HOLD_DUTIES]),
@@ -313,10 +326,13 @@ def test_duty_that_holds_5_mm_agrees_within_10_percent(holding) -> None:
     assert holding["independent h0/2"][0] - holding["kernel"][HOLD_DUTIES.index(0.06)] > 3e-3
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "known gap, measured: at duty 0.06 the kernel holds 4.93 mm, the independent generator "
-    "2.74 mm; our Preisach width spread lowers the heating branch 3.75 K below Table 5.1's"
-))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "known gap, measured: at duty 0.06 the kernel holds 4.93 mm, the independent generator "
+        "2.74 mm; our Preisach width spread lowers the heating branch 3.75 K below Table 5.1's"
+    ),
+)
 def test_holding_position_at_duty_006_within_1p5_mm(holding) -> None:
     i = HOLD_DUTIES.index(0.06)
     assert abs(holding["independent"][i] - holding["kernel"][i]) < 1.5e-3
@@ -333,16 +349,19 @@ def test_holding_gap_is_explained_by_the_kernels_loop_narrowing(holding) -> None
 # 3. Effects
 # --------------------------------------------------------------------------------------
 
+
 def _effect_duty() -> np.ndarray:
     """Open loop (so a sensor effect cannot feed back into the plant): heat, cool, hold, cool."""
-    return np.concatenate([np.zeros(1000), np.full(2000, 0.15), np.full(3000, 0.03),
-                           np.full(4000, 0.08), np.full(3000, 0.03)])
+    return np.concatenate(
+        [np.zeros(1000), np.full(2000, 0.15), np.full(3000, 0.03), np.full(4000, 0.08), np.full(3000, 0.03)]
+    )
 
 
 @pytest.fixture(scope="module")
 def clean_trace():
-    trace, _ = ind.generate(STANDARD, duty=_effect_duty(), position_noise_m=0.0,
-                            position_resolution_m=0.0, resistance_noise_ohm=0.0)
+    trace, _ = ind.generate(
+        STANDARD, duty=_effect_duty(), position_noise_m=0.0, position_resolution_m=0.0, resistance_noise_ohm=0.0
+    )
     return trace
 
 
@@ -373,8 +392,14 @@ def test_each_effect_changes_the_outputs_it_should(effect: str, clean_trace) -> 
     electrical readings exactly as they were. Measured RMS changes [um / mOhm]: lag 26/0,
     Abbe 144/0, convection x1.6 1213/97, Coulomb 0.6 N 45/3.2, sag 1 ohm 1221/96,
     latent -12 J/g 285/23, spread +6 K 248/21."""
-    trace, labels = ind.generate(STANDARD, duty=_effect_duty(), effect=effect, position_noise_m=0.0,
-                                 position_resolution_m=0.0, resistance_noise_ohm=0.0)
+    trace, labels = ind.generate(
+        STANDARD,
+        duty=_effect_duty(),
+        effect=effect,
+        position_noise_m=0.0,
+        position_resolution_m=0.0,
+        resistance_noise_ohm=0.0,
+    )
     assert labels["effect"] == effect
     changed, untouched = CHANGES[effect]
     for column in changed:
@@ -387,9 +412,15 @@ def test_each_effect_changes_the_outputs_it_should(effect: str, clean_trace) -> 
 
 
 def test_none_with_noise_stays_within_noise_of_the_clean_trace(clean_trace) -> None:
-    noisy, labels = ind.generate(STANDARD, duty=_effect_duty(), effect="none", seed=7,
-                                 position_noise_m=POSITION_NOISE_M, position_resolution_m=1e-6,
-                                 resistance_noise_ohm=RESISTANCE_NOISE_OHM)
+    noisy, labels = ind.generate(
+        STANDARD,
+        duty=_effect_duty(),
+        effect="none",
+        seed=7,
+        position_noise_m=POSITION_NOISE_M,
+        position_resolution_m=1e-6,
+        resistance_noise_ohm=RESISTANCE_NOISE_OHM,
+    )
     assert labels["effect"] is None
     dx = noisy.position - clean_trace.position
     dr = noisy.resistance - clean_trace.resistance
@@ -405,17 +436,31 @@ def test_none_with_noise_stays_within_noise_of_the_clean_trace(clean_trace) -> N
 # 4. The project's data format
 # --------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize(("excitation", "sample_period_s", "electrical"), [
-    ("steps", 1e-3, True), ("ramps", 1e-3, True), ("sine", 1e-2, False),
-    ("chirp", 1e-3, True), ("random", 1e-2, False),
-])
+
+@pytest.mark.parametrize(
+    ("excitation", "sample_period_s", "electrical"),
+    [
+        ("steps", 1e-3, True),
+        ("ramps", 1e-3, True),
+        ("sine", 1e-2, False),
+        ("chirp", 1e-3, True),
+        ("random", 1e-2, False),
+    ],
+)
 def test_trace_round_trips_through_the_csv_writer_and_loader(
     excitation: str, sample_period_s: float, electrical: bool, tmp_path: Path
 ) -> None:
     """What ``sma-gym diagnose`` loads (``min_rows=DIAGNOSIS_MIN_ROWS``) is what was generated:
     1 kHz with R, I, V and 100 Hz position-only files, for every excitation."""
-    trace, labels = ind.generate(STANDARD, excitation=excitation, duration_s=8.0, effect="coulomb_friction",
-                                 sample_period_s=sample_period_s, electrical=electrical, seed=5)
+    trace, labels = ind.generate(
+        STANDARD,
+        excitation=excitation,
+        duration_s=8.0,
+        effect="coulomb_friction",
+        sample_period_s=sample_period_s,
+        electrical=electrical,
+        seed=5,
+    )
     assert labels["generator"] == "independent"
     path = write_trace(tmp_path / f"{excitation}.csv", trace)
     loaded = load_trace(path, min_rows=DIAGNOSIS_MIN_ROWS)

@@ -102,7 +102,9 @@ def test_write_then_load_round_trips_and_refuses_to_overwrite(tmp_path):
 
 
 def test_zero_order_hold_resampling_to_control_steps():
-    trace = MeasuredTrace(path="x", t=np.array([0.0, 0.01, 0.02, 0.03]), duty=np.array([0.0, 0.5, 1.0, 1.0]), position=np.zeros(4))
+    trace = MeasuredTrace(
+        path="x", t=np.array([0.0, 0.01, 0.02, 0.03]), duty=np.array([0.0, 0.5, 1.0, 1.0]), position=np.zeros(4)
+    )
     ends, duty = trace.duty_at_control_steps(0.005)
     assert np.allclose(ends, [0.005, 0.01, 0.015, 0.02, 0.025, 0.03])
     assert np.allclose(duty, [0.0, 0.0, 0.5, 0.5, 1.0, 1.0])

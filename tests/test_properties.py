@@ -93,12 +93,18 @@ def test_any_input_keeps_the_state_physical(scenario):
     # electrical power against the model's own convection law (any form), and the adiabatic
     # rise of all the energy put in. Latent heat may add its Delta_H / c_p on top.
     w = p.wire
-    r_min = min(w.resistivity_martensite_ohm_m, w.resistivity_austenite_ohm_m) * (
-        1.0 - w.max_transformation_strain
-    ) ** 2 * w.length_m / w.area_m2 * 0.9
+    r_min = (
+        min(w.resistivity_martensite_ohm_m, w.resistivity_austenite_ohm_m)
+        * (1.0 - w.max_transformation_strain) ** 2
+        * w.length_m
+        / w.area_m2
+        * 0.9
+    )
     p_max = p.driver.supply_voltage_v**2 / r_min
     t_ss = steady_state_bound(sim.params[0], p_max)
-    latent_margin = max(0.0, w.latent_heat_j_kg + model.effects.value("latent_heat", "change_j_kg")) / w.specific_heat_j_kg_k
+    latent_margin = (
+        max(0.0, w.latent_heat_j_kg + model.effects.value("latent_heat", "change_j_kg")) / w.specific_heat_j_kg_k
+    )
     adiabatic = t_amb + sim.electrical_energy_j[0] / w.heat_capacity_j_k
     assert t.max() <= max(t_amb, min(t_ss, adiabatic)) + latent_margin + 0.5
 

@@ -199,12 +199,16 @@ def test_a_wide_spread_on_narrow_branches_is_smooth_and_keeps_mean_and_variance(
     assert slope[inside].min() > 0.35 * slope[inside].max()  # no plateau (0.24 unwidened)
     centres = (np.array(shift_h) + np.array(shift_c)) / 2
     assert np.dot(weights, centres) == pytest.approx(0.0, abs=1e-9)
-    assert np.dot(weights, centres**2) + COSINE_VARIANCE * width**2 == pytest.approx(spread_k**2 + COSINE_VARIANCE * range_k**2)
+    assert np.dot(weights, centres**2) + COSINE_VARIANCE * width**2 == pytest.approx(
+        spread_k**2 + COSINE_VARIANCE * range_k**2
+    )
     if law == "play":  # every hysteron's heating branch sits at its centre: the curve itself
         density = slope / np.trapezoid(slope, temps)
         mean = np.trapezoid(temps * density, temps)
         assert mean == pytest.approx(0.0, abs=0.05)
-        assert np.trapezoid((temps - mean) ** 2 * density, temps) == pytest.approx(spread_k**2 + COSINE_VARIANCE * range_k**2, rel=0.01)
+        assert np.trapezoid((temps - mean) ** 2 * density, temps) == pytest.approx(
+            spread_k**2 + COSINE_VARIANCE * range_k**2, rel=0.01
+        )
 
 
 def test_pwm_ripple_does_not_make_xi_ratchet():
@@ -311,7 +315,9 @@ def test_energy_is_accounted_for():
 
 def test_same_seed_same_result_bit_for_bit_with_noise():
     noisy = ModelConfig(
-        preset("standard").with_changes(**{"sensors.position_noise_std_m": 2e-5, "sensors.resistance_noise_std_ohm": 0.01})
+        preset("standard").with_changes(
+            **{"sensors.position_noise_std_m": 2e-5, "sensors.resistance_noise_std_ohm": 0.01}
+        )
     )
     duty = np.r_[np.ones(300), np.full(2000, 0.06)]
     a = Simulator(noisy, seed=7).run(duty, record=("position_measured_m", "resistance_measured_ohm"))
@@ -352,7 +358,9 @@ def test_warm_surroundings_slow_the_cooling_after_a_long_heating_and_relax_to_th
     assert short["surroundings_temperature_c"].max() < b["surroundings_temperature_c"].max()
     # The 'electrical' form (synthetic data only) warms them with the electrical power: from
     # the first pulse, and not at all once the current is off.
-    electrical = Simulator(base.with_effect("warm_surroundings", {"gain_k_j": 0.3, "time_constant_s": 20.0}, "electrical"))
+    electrical = Simulator(
+        base.with_effect("warm_surroundings", {"gain_k_j": 0.3, "time_constant_s": 20.0}, "electrical")
+    )
     c = electrical.run(long_heat, record=rec)["surroundings_temperature_c"][:, 0]
     assert c[99] - ambient > b["surroundings_temperature_c"][99, 0] - ambient > 0.0
     assert np.all(np.diff(c[20001:]) < 0.0)
@@ -435,7 +443,7 @@ def test_multiplexer_caps_duty_and_gives_each_actuator_its_own_slot():
     # Within one cycle the pulses do not overlap: actuator j conducts only in [j/4, (j+1)/4).
     probe = Simulator("standard", n=4, multiplexer=mux, pwm_mode="resolved", control_period_s=0.25e-3)
     energy = []
-    for k in range(4):
+    for _ in range(4):
         probe.step(np.full(4, 0.25))
         energy.append(probe.electrical_energy_j.copy())
     delta = np.diff(np.vstack([np.zeros(4), energy]), axis=0)

@@ -51,8 +51,8 @@ from sma_gym.core.layout import (
     P_D_M,
     P_DAMPING,
     P_DT_MAX,
-    P_DX_MAX,
     P_DUTY_MAX,
+    P_DX_MAX,
     P_EOT,
     P_EOT_RELEASE,
     P_EPS0,
@@ -163,15 +163,26 @@ CUT_WATCH_M = 2e-3
 @njit(cache=True, inline="always", error_model="numpy")
 def _resistance(state, params, i, x, xi, t_c):
     return wire_resistance(
-        x, xi, t_c, params[i, P_RHO_M], params[i, P_RHO_A], params[i, P_TCR_M], params[i, P_TCR_A],
-        params[i, P_T_REF_R], params[i, P_LENGTH], params[i, P_AREA],
+        x,
+        xi,
+        t_c,
+        params[i, P_RHO_M],
+        params[i, P_RHO_A],
+        params[i, P_TCR_M],
+        params[i, P_TCR_A],
+        params[i, P_T_REF_R],
+        params[i, P_LENGTH],
+        params[i, P_AREA],
     )
 
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _on_current(state, params, i):
     return on_current(
-        params[i, P_V_SUPPLY], state[i, S_R_TRUE], params[i, P_R_SERIES], int(params[i, P_SAG_FORM]),
+        params[i, P_V_SUPPLY],
+        state[i, S_R_TRUE],
+        params[i, P_R_SERIES],
+        int(params[i, P_SAG_FORM]),
         params[i, P_SAG_I_REF],
     )
 
@@ -201,7 +212,12 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
     # Heat in and convection out to the surroundings (exponential Euler, coefficient frozen
     # at T0).
     h_conv = convection_coefficient(
-        t0, params[i, P_H0], params[i, P_H1], params[i, P_H2], t_surr, int(params[i, P_CONV_FORM]),
+        t0,
+        params[i, P_H0],
+        params[i, P_H1],
+        params[i, P_H2],
+        t_surr,
+        int(params[i, P_CONV_FORM]),
         params[i, P_CONV_POWER_SCALE],
     )
     t_pred = exponential_euler(t0, energy_j / h, h_conv * params[i, P_SURFACE], heat_cap, t_surr, h)
@@ -220,9 +236,22 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
     b_ext = mass * (x0 + h * v0) / (h * h) + damping * x0 / h - f_pre
 
     wire = WireConstants(
-        area, length, params[i, P_D_A], params[i, P_D_M], params[i, P_EPS0], params[i, P_ALPHA_TH], t_amb,
-        params[i, P_SIGMA0], params[i, P_C_A], params[i, P_C_M], params[i, P_A_S], params[i, P_A_F],
-        params[i, P_M_S], params[i, P_M_F], params[i, P_LATENT], params[i, P_LATENT_COOL],
+        area,
+        length,
+        params[i, P_D_A],
+        params[i, P_D_M],
+        params[i, P_EPS0],
+        params[i, P_ALPHA_TH],
+        t_amb,
+        params[i, P_SIGMA0],
+        params[i, P_C_A],
+        params[i, P_C_M],
+        params[i, P_A_S],
+        params[i, P_A_F],
+        params[i, P_M_S],
+        params[i, P_M_F],
+        params[i, P_LATENT],
+        params[i, P_LATENT_COOL],
     )
     for k in range(n_nodes):
         nodes0[k] = state[i, S_XI_NODE0 + k]
@@ -242,7 +271,20 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
     t1 = t_pred
     for attempt in range(3):
         z, x1, s1, t1 = solve_step(
-            stick, x0, t_pred, z0, k_ext, b_ext - friction, wire, n_nodes, shift_h, shift_c, weights, nodes0, nodes1, u_star
+            stick,
+            x0,
+            t_pred,
+            z0,
+            k_ext,
+            b_ext - friction,
+            wire,
+            n_nodes,
+            shift_h,
+            shift_c,
+            weights,
+            nodes0,
+            nodes1,
+            u_star,
         )
         if f_c <= 0.0:
             break
@@ -288,7 +330,9 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
     elif v1 < -DIRECTION_THRESHOLD_M_S:
         state[i, S_DIRECTION] = -1.0
     state[i, S_TRAVEL] += abs(dx)
-    raw = x1 + abbe_reading_offset(params[i, P_ABBE], state[i, S_DIRECTION], state[i, S_TRAVEL], int(params[i, P_ABBE_FORM]))
+    raw = x1 + abbe_reading_offset(
+        params[i, P_ABBE], state[i, S_DIRECTION], state[i, S_TRAVEL], int(params[i, P_ABBE_FORM])
+    )
     filtered = first_order(state[i, S_FILTER], raw, h, params[i, P_TAU_FILTER])
     state[i, S_FILTER] = filtered
     tau_lag = params[i, P_TAU_LAG]
@@ -327,7 +371,23 @@ def _take_readings(state, params, i, on_time, t_settle, n_pos, n_r, n_i, n_v):
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _control_step(
-    state, params, i, duty_cmd, dt, n_pos, n_r, n_i, n_v, shift_h, shift_c, weights, nodes0, nodes1, u_star, n_nodes, saved
+    state,
+    params,
+    i,
+    duty_cmd,
+    dt,
+    n_pos,
+    n_r,
+    n_i,
+    n_v,
+    shift_h,
+    shift_c,
+    weights,
+    nodes0,
+    nodes1,
+    u_star,
+    n_nodes,
+    saved,
 ):
     duty = duty_cmd
     if duty < 0.0:
@@ -391,8 +451,13 @@ def _control_step(
         # Accuracy: the temperature may change by at most dt_max_k per sub-step.
         t_now = state[i, S_T]
         h_conv = convection_coefficient(
-            t_now, params[i, P_H0], params[i, P_H1], params[i, P_H2], state[i, S_T_SURR],
-            int(params[i, P_CONV_FORM]), params[i, P_CONV_POWER_SCALE],
+            t_now,
+            params[i, P_H0],
+            params[i, P_H1],
+            params[i, P_H2],
+            state[i, S_T_SURR],
+            int(params[i, P_CONV_FORM]),
+            params[i, P_CONV_POWER_SCALE],
         )
         rate = abs(power - h_conv * params[i, P_SURFACE] * (t_now - state[i, S_T_SURR])) / heat_cap
         if rate * seg > dt_max_k:
@@ -513,7 +578,23 @@ def advance(state, params, duty, dt, noise, record, record_fields):
                 n_i = noise[s, 2, i]
                 n_v = noise[s, 3, i]
             _control_step(
-                state, params, i, duty[s, i], dt, n_pos, n_r, n_i, n_v, shift_h, shift_c, weights, nodes0, nodes1, u_star, n_nodes, saved
+                state,
+                params,
+                i,
+                duty[s, i],
+                dt,
+                n_pos,
+                n_r,
+                n_i,
+                n_v,
+                shift_h,
+                shift_c,
+                weights,
+                nodes0,
+                nodes1,
+                u_star,
+                n_nodes,
+                saved,
             )
             if have_record:
                 for j in range(n_rec):

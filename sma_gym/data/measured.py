@@ -35,9 +35,10 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -119,10 +120,12 @@ class MeasuredTrace:
         idx = np.searchsorted(self.t, starts + 1e-12, side="right") - 1
         return ends, self.duty[np.clip(idx, 0, len(self.duty) - 1)]
 
-    def slice(self, start_s: float, stop_s: float) -> "MeasuredTrace":
+    def slice(self, start_s: float, stop_s: float) -> MeasuredTrace:
         keep = (self.t >= start_s) & (self.t <= stop_s)
+
         def part(a: np.ndarray | None) -> np.ndarray | None:
             return None if a is None else a[keep]
+
         return MeasuredTrace(
             path=f"{self.path}[{start_s:g}:{stop_s:g}s]",
             t=self.t[keep],
@@ -150,17 +153,9 @@ def _parse_float(text: str) -> float:
     return float(text)
 
 
-def load_trace(path: str | Path, min_rows: int = 2) -> MeasuredTrace:
-    """Load and validate one CSV file (and its sidecar). Raises :class:`MeasuredDataError`.
-
-    ``min_rows``: fewest data rows accepted (``DIAGNOSIS_MIN_ROWS`` for a diagnosis).
-    """
-    p = Path(path)
-    where = str(p)
-    if not p.exists():
-        raise MeasuredDataError([f"{where}: file does not exist"])
-    if p.is_dir():
-        raise MeasuredDataError([f"{where}: is a directory, expected a CSV file"])
+def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndarray], list[str]]:
+    """The CSV's columns by header name, and the problems found reading them (a file that
+    cannot be read as a table at all raises at once)."""
     problems: list[str] = []
     try:
         text = read_text(p, MAX_CSV_BYTES, "measured data")
@@ -201,6 +196,12 @@ def load_trace(path: str | Path, min_rows: int = 2) -> MeasuredTrace:
                 columns[name][i] = _parse_float(text)
             except ValueError:
                 problems.append(f"{where}:{line}:{name}: {text!r} is not a number")
+    return columns, problems
+
+
+def _value_problems(columns: dict[str, np.ndarray], where: str) -> list[str]:
+    """Missing, non-finite, non-increasing and out-of-range values, each with file:row:column."""
+    problems: list[str] = []
     for name in REQUIRED:
         bad = np.flatnonzero(~np.isfinite(columns[name]))
         for i in bad[:20]:
@@ -261,6 +262,12 @@ def load_trace(path: str | Path, min_rows: int = 2) -> MeasuredTrace:
                     f"expected {unit}"
                 )
 
+    return problems
+
+
+def _read_sidecar(p: Path) -> tuple[dict[str, Any], list[str]]:
+    """The sidecar's conditions (if the file has one) and the problems found in it."""
+    problems: list[str] = []
     conditions: dict[str, Any] = {}
     side = sidecar_path(p)
     if side is not None:
@@ -282,8 +289,27 @@ def load_trace(path: str | Path, min_rows: int = 2) -> MeasuredTrace:
                 problems.append(
                     f"{side}:{key}: unknown key; expected {', '.join(list(SIDECAR_KEYS) + list(SIDECAR_TEXT_KEYS))}"
                 )
+    return conditions, problems
+
+
+def load_trace(path: str | Path, min_rows: int = 2) -> MeasuredTrace:
+    """Load and validate one CSV file (and its sidecar). Raises :class:`MeasuredDataError`.
+
+    ``min_rows``: fewest data rows accepted (``DIAGNOSIS_MIN_ROWS`` for a diagnosis).
+    """
+    p = Path(path)
+    where = str(p)
+    if not p.exists():
+        raise MeasuredDataError([f"{where}: file does not exist"])
+    if p.is_dir():
+        raise MeasuredDataError([f"{where}: is a directory, expected a CSV file"])
+    columns, problems = _read_columns(p, where, min_rows)
+    problems += _value_problems(columns, where)
+    conditions, sidecar_problems = _read_sidecar(p)
+    problems += sidecar_problems
     if problems:
         raise MeasuredDataError(problems)
+    t, duty, position = columns["t"], columns["duty"], columns["position"]
     return MeasuredTrace(
         path=str(p),
         t=t,

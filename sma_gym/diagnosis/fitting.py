@@ -17,8 +17,8 @@ extra columns of one batched simulation, so one iteration costs one call into th
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -202,7 +202,9 @@ def model_for_trace(model: ModelConfig, trace: MeasuredTrace) -> ModelConfig:
     return model.with_actuator(**changes) if changes else model
 
 
-def simulate(models: Sequence[ModelConfig], offsets: Sequence[float], data: TraceData, control_period_s: float) -> dict[str, np.ndarray]:
+def simulate(
+    models: Sequence[ModelConfig], offsets: Sequence[float], data: TraceData, control_period_s: float
+) -> dict[str, np.ndarray]:
     """Simulated outputs at the trace's samples, one column per model: {output: (samples, n)}."""
     sim = Simulator([model_for_trace(m, data.trace) for m in models], control_period_s=control_period_s)
     record = tuple(OUTPUT_COLUMNS[name][1] for name in data.outputs)
@@ -313,7 +315,9 @@ class Problem:
         blocks = [residuals(simulate(models, offsets, d, self.dt), d) for d in self.traces]
         return np.concatenate(blocks, axis=0)
 
-    def fit(self, name: str, parameters: Sequence[FitParameter], max_nfev: int = 40, warm: dict[str, float] | None = None) -> Fit:
+    def fit(
+        self, name: str, parameters: Sequence[FitParameter], max_nfev: int = 40, warm: dict[str, float] | None = None
+    ) -> Fit:
         from scipy.optimize import least_squares
 
         params = tuple(parameters)

@@ -80,7 +80,9 @@ def regime_masks(model: ModelConfig, data: TraceData, control_period_s: float) -
     return masks
 
 
-def localise(model: ModelConfig, data: TraceData, simulated: dict[str, np.ndarray], control_period_s: float) -> dict[str, Any]:
+def localise(
+    model: ModelConfig, data: TraceData, simulated: dict[str, np.ndarray], control_period_s: float
+) -> dict[str, Any]:
     """Regimes and windows of one trace, for each measured output."""
     masks = regime_masks(model, data, control_period_s)
     t = data.trace.t
@@ -107,7 +109,9 @@ def localise(model: ModelConfig, data: TraceData, simulated: dict[str, np.ndarra
     return out
 
 
-def worst_windows(t: np.ndarray, r: np.ndarray, width: float = WINDOW_S, count: int = N_WINDOWS) -> list[dict[str, float]]:
+def worst_windows(
+    t: np.ndarray, r: np.ndarray, width: float = WINDOW_S, count: int = N_WINDOWS
+) -> list[dict[str, float]]:
     """The ``count`` non-overlapping windows of ``width`` seconds with the largest RMS."""
     if t.size == 0:
         return []

@@ -25,7 +25,13 @@ def _fmt(value: float, output: str) -> str:
     return f"{value * scale:.4g} {unit}"
 
 
-def write_report(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrace], heldout_traces: Sequence[MeasuredTrace], nominal: ModelConfig) -> Path:
+def write_report(
+    result: Diagnosis,
+    out: Path,
+    fit_traces: Sequence[MeasuredTrace],
+    heldout_traces: Sequence[MeasuredTrace],
+    nominal: ModelConfig,
+) -> Path:
     plots = []
     for label, traces in (("fit", fit_traces), ("heldout", heldout_traces)):
         for k, trace in enumerate(traces):
@@ -38,7 +44,9 @@ def write_report(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrac
     if verdict == "effect":
         headline = f"**Missing effect: `{result.effect}`**"
     elif verdict == "effects":
-        headline = f"**Missing effects: {', '.join(f'`{e}`' for e in result.effect)}** (found in that order, one per round)"
+        headline = (
+            f"**Missing effects: {', '.join(f'`{e}`' for e in result.effect)}** (found in that order, one per round)"
+        )
     elif verdict == "ambiguous":
         headline = f"**Ambiguous: {' or '.join(f'`{e}`' for e in result.effect)}**. To tell them apart: {result.separating_experiment}."
     elif verdict == "none":
@@ -63,12 +71,23 @@ def write_report(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrac
             after = result.gap_after[data].get(output, math.nan)
             refit = result.gap_nominal_refit[data].get(output, math.nan)
             shrink = 1.0 - after / before if before > 0 else 0.0
-            lines.append(f"| {data} | {output} | {_fmt(before, output)} | {_fmt(refit, output)} | {_fmt(after, output)} | {shrink * 100:.0f} % |")
-    lines += ["", "Noise (robust estimate from the data): " + ", ".join(f"{k} {_fmt(v, k)}" for k, v in result.noise.items()), ""]
+            lines.append(
+                f"| {data} | {output} | {_fmt(before, output)} | {_fmt(refit, output)} | {_fmt(after, output)} | {shrink * 100:.0f} % |"
+            )
+    lines += [
+        "",
+        "Noise (robust estimate from the data): " + ", ".join(f"{k} {_fmt(v, k)}" for k, v in result.noise.items()),
+        "",
+    ]
     if result.separating_experiment and verdict != "ambiguous":
         lines += [f"The last round was ambiguous; to tell its candidates apart: {result.separating_experiment}.", ""]
     lines += _round_lines(result) + _file_lines(result)
-    lines += ["## Fitted parameters of the corrected model", "", "| parameter | value | uncertainty (1 sigma) | unit |", "|---|---|---|---|"]
+    lines += [
+        "## Fitted parameters of the corrected model",
+        "",
+        "| parameter | value | uncertainty (1 sigma) | unit |",
+        "|---|---|---|---|",
+    ]
     for name, p in result.parameters.items():
         lines.append(f"| {name} | {p['value']:.5g} | {p['uncertainty']:.2g} | {p['unit']} |")
     lines += [
@@ -90,13 +109,23 @@ def write_report(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrac
     for entry in result.where["files"]:
         lines += ["", f"### {entry['file']}", ""]
         for output, regimes in entry["regimes"].items():
-            lines += [f"{output}:", "", "| regime | share of samples | share of squared error | RMS |", "|---|---|---|---|"]
+            lines += [
+                f"{output}:",
+                "",
+                "| regime | share of samples | share of squared error | RMS |",
+                "|---|---|---|---|",
+            ]
             for label, st in list(regimes.items())[:8]:
-                lines.append(f"| {label} | {st['fraction_of_samples'] * 100:.0f} % | {st['share_of_squared_error'] * 100:.0f} % | {_fmt(st['rms'], output)} |")
+                lines.append(
+                    f"| {label} | {st['fraction_of_samples'] * 100:.0f} % | {st['share_of_squared_error'] * 100:.0f} % | {_fmt(st['rms'], output)} |"
+                )
             windows = entry["windows"].get(output, [])
             if windows:
                 lines.append("")
-                lines.append("Worst 1 s windows: " + ", ".join(f"{w['start_s']:.0f}-{w['end_s']:.0f} s ({_fmt(w['rms'], output)})" for w in windows))
+                lines.append(
+                    "Worst 1 s windows: "
+                    + ", ".join(f"{w['start_s']:.0f}-{w['end_s']:.0f} s ({_fmt(w['rms'], output)})" for w in windows)
+                )
             lines.append("")
     lines += ["## Plots", ""] + [f"![{p.stem}]({p.name})" for p in plots]
     md = out / "diagnosis.md"
@@ -127,11 +156,18 @@ def _round_lines(result: Diagnosis) -> list[str]:
 
 
 def _file_lines(result: Diagnosis) -> list[str]:
-    lines = ["## The gap per file (position RMS)", "", "| data | file | nominal model | corrected model |", "|---|---|---|---|"]
+    lines = [
+        "## The gap per file (position RMS)",
+        "",
+        "| data | file | nominal model | corrected model |",
+        "|---|---|---|---|",
+    ]
     for label, files in result.gap_by_file.get("nominal", {}).items():
         for name, gaps in files.items():
             after = result.gap_by_file["corrected"][label][name].get("position", math.nan)
-            lines.append(f"| {label} | {name} | {_fmt(gaps.get('position', math.nan), 'position')} | {_fmt(after, 'position')} |")
+            lines.append(
+                f"| {label} | {name} | {_fmt(gaps.get('position', math.nan), 'position')} | {_fmt(after, 'position')} |"
+            )
     return lines + [""]
 
 
@@ -141,7 +177,9 @@ def _plot_rounds(result: Diagnosis, path: Path) -> Path:
     ax = axes[0, 0]
     steps = ["nominal"] + [f"round {r['round']}" for r in result.rounds]
     for label, style in (("fit", "o-"), ("heldout", "s--")):
-        values = [result.gap_before[label].get("position", math.nan)] + [r["gap"][label].get("position", math.nan) for r in result.rounds]
+        values = [result.gap_before[label].get("position", math.nan)] + [
+            r["gap"][label].get("position", math.nan) for r in result.rounds
+        ]
         ax.step(range(len(steps)), np.array(values) * 1e3, style, where="post", label=label)
     noise = result.noise.get("position")
     if noise:
@@ -208,7 +246,13 @@ def cross_validation_table(cv: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_outputs(result: Diagnosis, out: Path, fit_traces: Sequence[MeasuredTrace], heldout_traces: Sequence[MeasuredTrace], nominal: ModelConfig) -> dict[str, Path]:
+def write_outputs(
+    result: Diagnosis,
+    out: Path,
+    fit_traces: Sequence[MeasuredTrace],
+    heldout_traces: Sequence[MeasuredTrace],
+    nominal: ModelConfig,
+) -> dict[str, Path]:
     """Corrected model file, markdown report, JSON and plots into ``out``.
 
     Each file is written atomically, and the corrected model last: an interrupted run

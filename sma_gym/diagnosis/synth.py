@@ -21,9 +21,10 @@ and diagnosed on a held-out file with a different excitation.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -211,7 +212,10 @@ def generate(spec: SynthSpec) -> tuple[MeasuredTrace, dict[str, Any]]:
     )
     labels = {
         "effect": spec.effect,
-        "effect_values": dict(spec.effect_values or ({} if spec.effect is None else {q.name: q.typical for q in EFFECTS[spec.effect].parameters})),
+        "effect_values": dict(
+            spec.effect_values
+            or ({} if spec.effect is None else {q.name: q.typical for q in EFFECTS[spec.effect].parameters})
+        ),
         "form": spec.form,
         "perturbation": perturbation,
         "excitation": spec.excitation,
@@ -291,8 +295,16 @@ def check_spec(spec: SynthSpec) -> None:
     p = spec.model.actuator
     stroke = p.usable_stroke_m
     require_range("--position-noise", spec.position_noise_m, 0.0, MAX_NOISE_FRACTION * stroke, "m, 5 % of the stroke")
-    require_range("--position-resolution", spec.position_resolution_m, 0.0, MAX_NOISE_FRACTION * stroke, "m, 5 % of the stroke")
-    require_range("--resistance-noise", spec.resistance_noise_ohm, 0.0, MAX_NOISE_FRACTION * p.wire.cold_resistance_ohm, "ohm, 5 % of the cold resistance")
+    require_range(
+        "--position-resolution", spec.position_resolution_m, 0.0, MAX_NOISE_FRACTION * stroke, "m, 5 % of the stroke"
+    )
+    require_range(
+        "--resistance-noise",
+        spec.resistance_noise_ohm,
+        0.0,
+        MAX_NOISE_FRACTION * p.wire.cold_resistance_ohm,
+        "ohm, 5 % of the cold resistance",
+    )
     require_range("--perturb", spec.perturb, 0.0, 0.5, "relative; beyond 50 % the nominal model means nothing")
     require_int_range("--seed", spec.seed, 0, 2**63 - 1)
 

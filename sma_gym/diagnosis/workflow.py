@@ -73,15 +73,33 @@ hour of data takes hours; the informative part of a longer recording should be c
 
 #: What would tell two candidates apart (for "ambiguous" verdicts).
 SEPARATING_EXPERIMENTS = {
-    frozenset({"sensor_lag", "abbe_offset"}): "a slow triangle wave: a lag grows with speed, an Abbe offset is a constant step at each reversal",
-    frozenset({"sensor_lag", "coulomb_friction"}): "a force or resistance measurement: friction changes the wire's stress and resistance, a sensor lag only the position reading",
-    frozenset({"abbe_offset", "coulomb_friction"}): "a resistance measurement at reversals: friction holds the wire (R keeps changing while x sticks), an Abbe error moves only the reading",
-    frozenset({"transformation_spread", "latent_heat"}): "steps at two supply voltages: latent heat delays the transformation more at low power, a spread does not depend on the heating rate",
-    frozenset({"transformation_spread", "convection_change"}): "holding at several positions: a changed convection law shifts the holding duty with temperature, a spread widens the transformation range",
-    frozenset({"latent_heat", "convection_change"}): "a fast full-power step: latent heat shows while transforming, convection mostly while holding",
-    frozenset({"supply_sag", "pulse_settling"}): "the same duty at two PWM frequencies: settling losses grow with the frequency, a supply sag does not",
-    frozenset({"supply_sag", "convection_change"}): "a voltage measurement during pulses: a sag lowers the wire voltage",
-    frozenset({"pulse_settling", "convection_change"}): "holding at two PWM frequencies: settling losses change with the frequency, convection does not",
+    frozenset(
+        {"sensor_lag", "abbe_offset"}
+    ): "a slow triangle wave: a lag grows with speed, an Abbe offset is a constant step at each reversal",
+    frozenset(
+        {"sensor_lag", "coulomb_friction"}
+    ): "a force or resistance measurement: friction changes the wire's stress and resistance, a sensor lag only the position reading",
+    frozenset(
+        {"abbe_offset", "coulomb_friction"}
+    ): "a resistance measurement at reversals: friction holds the wire (R keeps changing while x sticks), an Abbe error moves only the reading",
+    frozenset(
+        {"transformation_spread", "latent_heat"}
+    ): "steps at two supply voltages: latent heat delays the transformation more at low power, a spread does not depend on the heating rate",
+    frozenset(
+        {"transformation_spread", "convection_change"}
+    ): "holding at several positions: a changed convection law shifts the holding duty with temperature, a spread widens the transformation range",
+    frozenset(
+        {"latent_heat", "convection_change"}
+    ): "a fast full-power step: latent heat shows while transforming, convection mostly while holding",
+    frozenset(
+        {"supply_sag", "pulse_settling"}
+    ): "the same duty at two PWM frequencies: settling losses grow with the frequency, a supply sag does not",
+    frozenset(
+        {"supply_sag", "convection_change"}
+    ): "a voltage measurement during pulses: a sag lowers the wire voltage",
+    frozenset(
+        {"pulse_settling", "convection_change"}
+    ): "holding at two PWM frequencies: settling losses change with the frequency, convection does not",
 }
 GENERIC_EXPERIMENT = "an excitation that exercises both effects differently: several supply voltages, PWM frequencies and slow and fast motions, with resistance measured"
 
@@ -185,7 +203,9 @@ def diagnose(
         raise ValueError("no files to fit: give at least one measured trace")
     fit_traces = [_decimated(t, control_period_s, say) for t in fit_traces]
     heldout_traces = [_decimated(t, control_period_s, say) for t in heldout_traces]
-    say(f"fitting {len(fit_traces)} file(s), {len(names)} candidate effect(s) plus the nominal refit, up to {max_rounds} round(s)")
+    say(
+        f"fitting {len(fit_traces)} file(s), {len(names)} candidate effect(s) plus the nominal refit, up to {max_rounds} round(s)"
+    )
     if heldout_traces:
         fit_data = [fitting.prepare(t, control_period_s) for t in fit_traces]
         held_data = [fitting.prepare(t, control_period_s) for t in heldout_traces]
@@ -221,13 +241,23 @@ def diagnose(
         # each round rescaled the previous round's result), and a parameter that ends at one
         # is reported as a finding rather than hidden behind another rescaling.
         r = _round(
-            nominal, found, remaining, warm, as_given, fit_data, held_data, control_period_s, gain,
-            lambda m: say(f"round {number}: {m}"),
+            nominal,
+            found,
+            remaining,
+            warm,
+            as_given,
+            fit_data,
+            held_data,
+            control_period_s,
+            gain,
+            lambda m, number=number: say(f"round {number}: {m}"),
         )
         first = first or r
         last = r
         as_given = r.as_given if as_given is None else as_given
-        model_r, offset_r = (r.chosen.fit.model, r.chosen.fit.offset) if r.verdict in ("effect", "ambiguous") else (current, offset)
+        model_r, offset_r = (
+            (r.chosen.fit.model, r.chosen.fit.offset) if r.verdict in ("effect", "ambiguous") else (current, offset)
+        )
         rounds.append(
             {
                 "round": number,
@@ -397,7 +427,10 @@ def _decimated(trace: MeasuredTrace, control_period_s: float, say: Callable[[str
         t=trace.t[pick],
         duty=trace.duty[pick],
         position=trace.position[pick],
-        **{name: None if getattr(trace, name) is None else getattr(trace, name)[pick] for name in ("resistance", "current", "supply_voltage", "force")},
+        **{
+            name: None if getattr(trace, name) is None else getattr(trace, name)[pick]
+            for name in ("resistance", "current", "supply_voltage", "force")
+        },
     )
 
 
@@ -425,12 +458,15 @@ def _gaps(model: ModelConfig, offset: float, fit_data, held_data, dt: float) -> 
             for name, value in fitting.rms_by_output(sim, d).items():
                 sums.setdefault(name, []).append((value**2, d.n_samples))
         out[label] = {
-            name: float(math.sqrt(sum(v * n for v, n in vals) / max(1, sum(n for _, n in vals)))) for name, vals in sums.items()
+            name: float(math.sqrt(sum(v * n for v, n in vals) / max(1, sum(n for _, n in vals))))
+            for name, vals in sums.items()
         }
     return out
 
 
-def _gaps_by_file(model: ModelConfig, offset: float, fit_data, held_data, dt: float) -> dict[str, dict[str, dict[str, float]]]:
+def _gaps_by_file(
+    model: ModelConfig, offset: float, fit_data, held_data, dt: float
+) -> dict[str, dict[str, dict[str, float]]]:
     """RMS per output of ``model`` on each file, fitted and held out separately."""
     out: dict[str, dict[str, dict[str, float]]] = {}
     for label, datasets in (("fit", fit_data), ("heldout", held_data)):
@@ -485,7 +521,7 @@ def cross_validate(
     for k, held in enumerate(traces):
         fit = [t for j, t in enumerate(traces) if j != k]
 
-        def say(message: str, name: str = held.name) -> None:
+        def say(message: str, name: str = held.name, k: int = k) -> None:
             if progress is not None:
                 progress(f"fold {k + 1}/{len(traces)} (predict {name}): {message}")
 

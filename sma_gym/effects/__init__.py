@@ -17,8 +17,9 @@ synthetic test data can hide an effect in a shape that differs from the candidat
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Mapping
+from typing import Any
 
 from sma_gym._validation import require_finite
 
@@ -63,7 +64,9 @@ class Effect:
         return {p.name: p.off for p in self.parameters}
 
 
-def _p(name: str, unit: str, off: float, lower: float, upper: float, typical: float, description: str) -> EffectParameter:
+def _p(
+    name: str, unit: str, off: float, lower: float, upper: float, typical: float, description: str
+) -> EffectParameter:
     return EffectParameter(name, unit, off, lower, upper, description, typical)
 
 
@@ -131,7 +134,9 @@ EFFECTS: dict[str, Effect] = {
             source="§5.4, §5.8",
             parameters=(
                 _p("gain_k_j", "K/J", 0.0, 0.0, 1.0, 0.1, "warming of the surroundings per joule the wire convects"),
-                _p("time_constant_s", "s", 30.0, 2.0, 300.0, 20.0, "time the surroundings take to relax to the ambient"),
+                _p(
+                    "time_constant_s", "s", 30.0, 2.0, 300.0, 20.0, "time the surroundings take to relax to the ambient"
+                ),
             ),
             forms=("default", "electrical"),
         ),
@@ -195,9 +200,7 @@ EFFECTS: dict[str, Effect] = {
                 "multiplexing frequencies (§9.2). Current rises as 1 - exp(-t/tau)."
             ),
             source="§4.1, §9.2",
-            parameters=(
-                _p("rise_time_constant_s", "s", 0.0, 0.0, 60e-6, 12e-6, "time constant of the current rise"),
-            ),
+            parameters=(_p("rise_time_constant_s", "s", 0.0, 0.0, 60e-6, 12e-6, "time constant of the current rise"),),
             forms=("default", "delay"),
         ),
     )
@@ -260,7 +263,7 @@ class EffectSet:
             raise ValueError(f"effects = {names!r}: each effect may appear once")
 
     @classmethod
-    def of(cls, spec: "EffectSet | Mapping[str, Any] | Iterable[EffectSetting] | None") -> "EffectSet":
+    def of(cls, spec: EffectSet | Mapping[str, Any] | Iterable[EffectSetting] | None) -> EffectSet:
         """Build from an ``EffectSet``, a ``{name: {param: value}}`` mapping, settings, or None.
 
         A mapping value may also be ``{"parameters": {...}, "form": "..."}``.
@@ -281,7 +284,9 @@ class EffectSet:
                     unknown = set(value) - {"parameters", "form"}
                     if unknown:
                         raise ValueError(f"effects[{name!r}]: unknown key(s) {sorted(unknown)}")
-                    settings.append(EffectSetting(name, dict(value.get("parameters", {})), value.get("form", "default")))
+                    settings.append(
+                        EffectSetting(name, dict(value.get("parameters", {})), value.get("form", "default"))
+                    )
                 else:
                     settings.append(EffectSetting(name, dict(value)))
             return cls(tuple(settings))
@@ -303,7 +308,7 @@ class EffectSet:
         setting = self.get(effect)
         return "default" if setting is None else setting.form
 
-    def with_setting(self, setting: EffectSetting) -> "EffectSet":
+    def with_setting(self, setting: EffectSetting) -> EffectSet:
         rest = tuple(s for s in self.settings if s.name != setting.name)
         return EffectSet(rest + (setting,))
 

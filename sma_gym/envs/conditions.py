@@ -28,7 +28,9 @@ CONVECTIONS = ("natural", "forced")
 def _as_range(name: str, value: Any, lower: float, upper: float, unit: str) -> tuple[float, float]:
     if isinstance(value, (tuple, list)):
         if len(value) != 2:
-            raise ValueError(f"{name} = {value!r}: expected a number or a (low, high) pair in [{lower:g}, {upper:g}] {unit}")
+            raise ValueError(
+                f"{name} = {value!r}: expected a number or a (low, high) pair in [{lower:g}, {upper:g}] {unit}"
+            )
         lo = require_range(name, value[0], lower, upper, unit)
         hi = require_range(name, value[1], lower, upper, unit)
         if hi < lo:
@@ -59,7 +61,7 @@ class Conditions:
         convection: Any = None,
         wire_diameter_m: Any = None,
         spread: Any = None,
-    ) -> "Conditions":
+    ) -> Conditions:
         """Validate env kwargs: numbers fix a condition, (low, high) pairs randomise it,
         ``convection`` is ``"natural"``, ``"forced"`` or ``"random"``; ``None`` keeps the default."""
         default = cls()
@@ -152,7 +154,6 @@ def condition_info(condition: dict[str, Any]) -> dict[str, float | bool]:
     """
     flat: dict[str, float | bool] = {}
     for key in CONDITION_INFO_KEYS:
-        name = key[len("condition_"):]
+        name = key[len("condition_") :]
         flat[key] = condition["convection"] == "forced" if name == "forced_convection" else float(condition[name])
     return flat
-

@@ -58,7 +58,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         Rewards=docs.join(docs.REWARD, "The env's reward is the mean over the actuators."),
         Starting_State=docs.join(
             docs.START,
-            "`reset(options={\"references\": [...]})` gives each actuator its own (one entry per actuator).",
+            '`reset(options={"references": [...]})` gives each actuator its own (one entry per actuator).',
         ),
         Episode_End=docs.EPISODE_END,
         Info=docs.join(
@@ -153,7 +153,9 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         options = {} if options is None else options
         unknown = set(options) - {"reference", "references"}
         if unknown:
-            raise ValueError(f"reset options {sorted(unknown)}: expected 'reference' or 'references' (one per actuator)")
+            raise ValueError(
+                f"reset options {sorted(unknown)}: expected 'reference' or 'references' (one per actuator)"
+            )
         specs = options.get("references")
         if specs is None:
             specs = [options.get("reference")] * self.n

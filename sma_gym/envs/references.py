@@ -23,7 +23,8 @@ references the agent did not train on.
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -52,7 +53,14 @@ class Reference:
 
     __slots__ = ("kind", "params", "waypoint_t", "waypoint_x", "name")
 
-    def __init__(self, kind: int, params: np.ndarray, waypoint_t: np.ndarray | None = None, waypoint_x: np.ndarray | None = None, name: str = ""):
+    def __init__(
+        self,
+        kind: int,
+        params: np.ndarray,
+        waypoint_t: np.ndarray | None = None,
+        waypoint_x: np.ndarray | None = None,
+        name: str = "",
+    ):
         self.kind = int(kind)
         self.params = np.zeros(N_PARAMS)
         self.params[: len(params)] = params
@@ -237,13 +245,20 @@ def _from_mapping(spec: Mapping[str, Any], rng: np.random.Generator, stroke_m: f
     if kind == "random":
         unknown = set(given) - {"times_s", "levels_m"}
         if unknown:
-            raise ValueError(f"reference 'random': unknown field(s) {sorted(unknown)}; expected ['times_s', 'levels_m']")
+            raise ValueError(
+                f"reference 'random': unknown field(s) {sorted(unknown)}; expected ['times_s', 'levels_m']"
+            )
         try:
             wp_t = np.asarray(given.get("times_s", []), dtype=float)
             wp_x = np.asarray(given.get("levels_m", []), dtype=float)
         except (TypeError, ValueError):
             raise ValueError("reference 'random': 'times_s' and 'levels_m' must be lists of numbers") from None
-        if wp_t.ndim != 1 or wp_t.shape != wp_x.shape or not (2 <= len(wp_t) <= N_WAYPOINTS) or np.any(np.diff(wp_t) <= 0):
+        if (
+            wp_t.ndim != 1
+            or wp_t.shape != wp_x.shape
+            or not (2 <= len(wp_t) <= N_WAYPOINTS)
+            or np.any(np.diff(wp_t) <= 0)
+        ):
             raise ValueError(
                 f"reference 'random' needs 'times_s' (strictly increasing) and 'levels_m' of equal length 2..{N_WAYPOINTS}"
             )
@@ -262,7 +277,12 @@ def _from_mapping(spec: Mapping[str, Any], rng: np.random.Generator, stroke_m: f
     defaults = {
         "step": {"t1_s": REPORT_STEP_TIME_S, "level1_m": REPORT_STEP_M, "t2_s": math.inf, "level2_m": None},
         "ramp": {"t1_s": 0.5, "level1_m": 7e-3, "d1_s": 1.0, "t2_s": math.inf, "level2_m": 1e-3, "d2_s": 1.0},
-        "sine": {"offset_m": REPORT_SINE_OFFSET_M, "amplitude_m": REPORT_SINE_AMPLITUDE_M, "frequency_hz": REPORT_SINE_FREQUENCY_HZ, "phase_rad": 0.0},
+        "sine": {
+            "offset_m": REPORT_SINE_OFFSET_M,
+            "amplitude_m": REPORT_SINE_AMPLITUDE_M,
+            "frequency_hz": REPORT_SINE_FREQUENCY_HZ,
+            "phase_rad": 0.0,
+        },
     }[kind]
     values = {**defaults, **{k: _field(kind, k, v) for k, v in given.items()}}
     if kind == "step" and values["level2_m"] is None:
@@ -275,11 +295,15 @@ def _from_mapping(spec: Mapping[str, Any], rng: np.random.Generator, stroke_m: f
         elif key == "t1_s" and not (math.isfinite(value) and value >= 0.0):
             raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a finite time >= 0 s")
         elif key == "t2_s" and not value >= values["t1_s"]:
-            raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a time >= t1_s = {values['t1_s']!r} s, or inf (never)")
+            raise ValueError(
+                f"reference {kind!r} {key} = {value!r}: expected a time >= t1_s = {values['t1_s']!r} s, or inf (never)"
+            )
         elif key in ("d1_s", "d2_s") and not (value > 0 and math.isfinite(value)):
             raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a positive finite duration (s)")
         elif key == "frequency_hz" and not 0.0 < value <= MAX_REFERENCE_FREQUENCY_HZ:
-            raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a value in (0, {MAX_REFERENCE_FREQUENCY_HZ:g}] Hz")
+            raise ValueError(
+                f"reference {kind!r} {key} = {value!r}: expected a value in (0, {MAX_REFERENCE_FREQUENCY_HZ:g}] Hz"
+            )
         elif key == "phase_rad" and not math.isfinite(value):
             raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a finite phase (rad)")
         elif key == "amplitude_m" and not (math.isfinite(value) and value >= 0.0):

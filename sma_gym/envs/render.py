@@ -10,7 +10,8 @@ drawn over it (blitting).
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -71,8 +72,12 @@ def _grown(limits: tuple[float, float], low: float, high: float, floor: float) -
 class EpisodePlot:
     """Draws an :class:`EpisodeHistory` into 640 x 640 RGB frames."""
 
-    _AXES = (("position", "position [mm]", 1e3, 1.0), ("duty", "duty [-]", 1.0, 0.1),
-             ("resistance", "R [ohm]", 1.0, 0.5), ("temperature", "T [degC]", 1.0, 10.0))
+    _AXES = (
+        ("position", "position [mm]", 1e3, 1.0),
+        ("duty", "duty [-]", 1.0, 0.1),
+        ("resistance", "R [ohm]", 1.0, 0.5),
+        ("temperature", "T [degC]", 1.0, 10.0),
+    )
     """(field, label, scale, smallest span): one axis each, top to bottom."""
 
     def __init__(self) -> None:
@@ -149,8 +154,15 @@ class EpisodePlot:
             for j in range(n):
                 suffix = f" {labels[j]}" if labels else ""
                 # animated: drawn only by draw_artist over the cached background
-                (line,) = ax.plot([], [], "--" if name == "reference" else "-", color=f"C{j % 10}",
-                                  label=f"{name}{suffix}", animated=True, lw=1.2)
+                (line,) = ax.plot(
+                    [],
+                    [],
+                    "--" if name == "reference" else "-",
+                    color=f"C{j % 10}",
+                    label=f"{name}{suffix}",
+                    animated=True,
+                    lw=1.2,
+                )
                 self._lines[name].append(line)
         if n <= 4:
             self.axes[0].legend(fontsize=7, loc="upper left")

@@ -31,7 +31,8 @@ at all.
 from __future__ import annotations
 
 import time
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode
@@ -80,7 +81,10 @@ class SB3VecEnv(VecEnv):
         ended = np.flatnonzero(dones)
         if ended.size and self.autoreset_mode == AutoresetMode.SAME_STEP:
             terminal = info["final_obs"]
-            info = {**info, **{k: np.where(dones, v, info[k]) for k, v in info["final_info"].items() if k in _PER_STEP_INFO}}
+            info = {
+                **info,
+                **{k: np.where(dones, v, info[k]) for k, v in info["final_info"].items() if k in _PER_STEP_INFO},
+            }
         elif ended.size:
             terminal = obs
             obs = obs.copy()

@@ -234,8 +234,21 @@ class TaskState:
         """Fill observations, rewards, termination flags and references (entry j for
         actuator ``actuators[j]``, an int64 array)."""
         task_outputs(
-            sim.state, sim.params, self.observation, self.kind, self.params, self.wp_t, self.wp_x, self.held,
-            self.last_duty, self.energy_weight, self.overheat_limit_c, obs_out, reward_out, term_out, ref_out,
+            sim.state,
+            sim.params,
+            self.observation,
+            self.kind,
+            self.params,
+            self.wp_t,
+            self.wp_x,
+            self.held,
+            self.last_duty,
+            self.energy_weight,
+            self.overheat_limit_c,
+            obs_out,
+            reward_out,
+            term_out,
+            ref_out,
             actuators,
         )
 
@@ -251,9 +264,23 @@ class TaskState:
         """:meth:`evaluate` with these arguments, as a call without arguments (an env step
         makes it every time; the arrays are updated in place, never replaced)."""
         return partial(
-            task_outputs, sim.state, sim.params, self.observation, self.kind, self.params, self.wp_t, self.wp_x,
-            self.held, self.last_duty, self.energy_weight, self.overheat_limit_c, obs_out, reward_out, term_out,
-            ref_out, actuators,
+            task_outputs,
+            sim.state,
+            sim.params,
+            self.observation,
+            self.kind,
+            self.params,
+            self.wp_t,
+            self.wp_x,
+            self.held,
+            self.last_duty,
+            self.energy_weight,
+            self.overheat_limit_c,
+            obs_out,
+            reward_out,
+            term_out,
+            ref_out,
+            actuators,
         )
 
     def info(self, sim: Simulator, reference_m: np.ndarray) -> dict[str, Any]:
@@ -358,4 +385,3 @@ def task_outputs(
         reward_out[j] = -abs(s[L.S_X] - r) / stroke - energy_weight * s[L.S_POWER] / p_full
         term_out[j] = s[L.S_T] > overheat_c
         ref_out[j] = r
-

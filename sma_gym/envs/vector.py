@@ -128,8 +128,19 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 100, "autoreset_mode": AutoresetMode.NEXT_STEP}
 
     FIXED_AT_MAKE = (
-        "control_period_s", "settings", "sim", "task", "variant", "num_envs", "feature_names", "duty_range",
-        "observation_space", "action_space", "single_observation_space", "single_action_space", "autoreset_mode",
+        "control_period_s",
+        "settings",
+        "sim",
+        "task",
+        "variant",
+        "num_envs",
+        "feature_names",
+        "duty_range",
+        "observation_space",
+        "action_space",
+        "single_observation_space",
+        "single_action_space",
+        "autoreset_mode",
     )
     """Attributes the simulator or the spaces were built from: changing one afterwards would
     leave the simulator stepping with the old value, so adapters refuse to set them."""
@@ -202,7 +213,9 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         self._rngs: list[np.random.Generator | None] = [None] * n
         self.conditions: list[dict[str, Any] | None] = [None] * n
         """The condition each sub-env drew at its last reset (robustness env), else ``None``."""
-        self._condition_info = {key: np.zeros(n, dtype=bool if "forced" in key else float) for key in CONDITION_INFO_KEYS}
+        self._condition_info = {
+            key: np.zeros(n, dtype=bool if "forced" in key else float) for key in CONDITION_INFO_KEYS
+        }
         self._all_true = np.ones(n, dtype=bool)
         # NEXT_STEP / DISABLED: sub-envs whose episode ended on the last step.
         self._ended = np.zeros(n, dtype=bool)
@@ -226,8 +239,12 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         mask = options.pop("reset_mask", None)
         if mask is None:
             mask = self._all_true
-        elif not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (self.num_envs,) and mask.any()):
-            raise ValueError(f"options['reset_mask'] = {mask!r}: expected a bool numpy array of shape ({self.num_envs},) with a True entry")
+        elif not (
+            isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (self.num_envs,) and mask.any()
+        ):
+            raise ValueError(
+                f"options['reset_mask'] = {mask!r}: expected a bool numpy array of shape ({self.num_envs},) with a True entry"
+            )
         if seed is None:
             seeds: list[int | None] = [None] * self.num_envs
         elif isinstance(seed, (int, np.integer)):
@@ -245,7 +262,9 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         self._reset_envs(np.flatnonzero(mask), options)
         return self._obs.copy(), self._info()
 
-    def reset_envs(self, indices: Sequence[int], options: dict | None = None) -> list[tuple[np.ndarray, dict[str, Any]]]:
+    def reset_envs(
+        self, indices: Sequence[int], options: dict | None = None
+    ) -> list[tuple[np.ndarray, dict[str, Any]]]:
         """Reset only the sub-envs ``indices`` (each with its own generator); the others go on.
 
         Returns ``(observation, info)`` per index, in the order given (info: that sub-env's
@@ -253,7 +272,9 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         """
         self._reset_envs(np.asarray(sorted({int(i) for i in indices}), dtype=np.int64), options)
         info = self._info()
-        return [(self._obs[i].copy(), {k: v[i].item() for k, v in info.items() if not k.startswith("_")}) for i in indices]
+        return [
+            (self._obs[i].copy(), {k: v[i].item() for k, v in info.items() if not k.startswith("_")}) for i in indices
+        ]
 
     def reference_description(self) -> list[dict[str, Any]]:
         """Each sub-env's current reference (kind, name, parameters; keys depend on the kind)."""

@@ -39,6 +39,7 @@ from typing import NamedTuple
 from sma_gym._jit import njit
 from sma_gym.physics.transformation import cosine_fraction, cosine_fraction_inverse, cosine_fraction_slope
 
+
 class WireConstants(NamedTuple):
     """The wire's constants the implicit step needs, passed as one argument (numba passes a
     named tuple by value, so this costs nothing over sixteen scalars). Units as in
@@ -88,7 +89,9 @@ def kinetic_friction(f_c, velocity, form):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _evaluate(z, stick, x0, t_pred, z0, k_ext, b_ext, wire, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out, u_star):
+def _evaluate(
+    z, stick, x0, t_pred, z0, k_ext, b_ext, wire, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out, u_star
+):
     """Z(z) and dZ/dz for a trial mean martensite fraction z; fills xi_nodes_out.
 
     Returns (Z, dZ, x1, sigma1, t1).
@@ -142,7 +145,9 @@ def _evaluate(z, stick, x0, t_pred, z0, k_ext, b_ext, wire, n_nodes, shift_h, sh
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def solve_step(stick, x0, t_pred, z0, k_ext, b_ext, wire, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out, u_star):
+def solve_step(
+    stick, x0, t_pred, z0, k_ext, b_ext, wire, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out, u_star
+):
     """One implicit step: returns (z, x1, sigma1, t1) and fills ``xi_nodes_out``.
 
     ``k_ext`` and ``b_ext`` hold the backward-Euler mechanics: the new position solves
@@ -163,7 +168,21 @@ def solve_step(stick, x0, t_pred, z0, k_ext, b_ext, wire, n_nodes, shift_h, shif
     t1 = t_pred
     for it in range(80):
         big_z, dbig_z, x1, sigma1, t1 = _evaluate(
-            z, stick, x0, t_pred, z0, k_ext, b_ext, wire, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out, u_star
+            z,
+            stick,
+            x0,
+            t_pred,
+            z0,
+            k_ext,
+            b_ext,
+            wire,
+            n_nodes,
+            shift_h,
+            shift_c,
+            weights,
+            xi_nodes0,
+            xi_nodes_out,
+            u_star,
         )
         r = z - big_z
         if it == 0:
