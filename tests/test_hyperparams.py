@@ -105,12 +105,26 @@ def test_train_py_reads_the_agent_it_had_from_the_toml_files():
     }
     for env_id, (residual, scale, steps) in expected.items():
         run = RunConfig.from_args(parse_args(["--env", env_id]))
-        assert (run.algo, run.history, run.residual, run.residual_scale, run.timesteps) == ("sac", "ema", residual, scale, steps)
+        assert (run.algo, run.history, run.residual, run.residual_scale, run.timesteps) == (
+            "sac",
+            "ema",
+            residual,
+            scale,
+            steps,
+        )
         assert (run.n_envs, run.frame_stack, run.eval_freq) == (4, 1, 20_000)
         assert run.env_kwargs == {"control_period_s": 0.01, "position_noise_std_m": 2e-6}
         assert run.model_kwargs == {
-            "policy": "MlpPolicy", "learning_rate": 7.3e-4, "buffer_size": 200_000, "batch_size": 256, "gamma": 0.99,
-            "tau": 0.02, "train_freq": 4, "gradient_steps": 2, "learning_starts": 4_000, "ent_coef": "auto",
+            "policy": "MlpPolicy",
+            "learning_rate": 7.3e-4,
+            "buffer_size": 200_000,
+            "batch_size": 256,
+            "gamma": 0.99,
+            "tau": 0.02,
+            "train_freq": 4,
+            "gradient_steps": 2,
+            "learning_starts": 4_000,
+            "ent_coef": "auto",
             "policy_kwargs": {"net_arch": [256, 256]},
         }
         ppo = RunConfig.from_args(parse_args(["--env", env_id, "--algo", "ppo"]))
@@ -147,7 +161,11 @@ def test_history_wrapper_built_by_the_zoo_equals_the_one_train_py_builds():
     kwargs = entry("sac", "SMATracking-v0")["env_kwargs"]
     outs = []
     for explicit in (False, True):
-        venv = ResidualVecEnv(make_vec_env(lambda **kw: gym.make("SMATracking-v0", **kw), n_envs=2, seed=3, env_kwargs=kwargs), "VSC3 + FF", 1.0)
+        venv = ResidualVecEnv(
+            make_vec_env(lambda **kw: gym.make("SMATracking-v0", **kw), n_envs=2, seed=3, env_kwargs=kwargs),
+            "VSC3 + FF",
+            1.0,
+        )
         venv = HistoryVecEnv(venv, HistoryFeatures.for_env(2, "SMATracking-v0", kwargs) if explicit else None)
         obs = [venv.reset()]
         for _ in range(5):
@@ -164,7 +182,13 @@ def test_the_zoo_preprocesses_every_entry(tmp_path):
 
     for algo, env_id in ENTRIES:
         manager = ExperimentManager(
-            args=None, algo=algo, env_id=env_id, log_folder=str(tmp_path), config=str(FILES[algo]), verbose=0, seed=0,
+            args=None,
+            algo=algo,
+            env_id=env_id,
+            log_folder=str(tmp_path),
+            config=str(FILES[algo]),
+            verbose=0,
+            seed=0,
         )
         hyperparams, _ = manager.read_hyperparameters()
         kwargs, env_wrapper, callbacks, vec_env_wrapper = manager._preprocess_hyperparams(hyperparams)
@@ -191,9 +215,30 @@ def test_the_zoo_trains_our_default_agent_from_our_file(tmp_path):
     from stable_baselines3 import SAC
 
     cmd = [
-        sys.executable, "-m", "rl_zoo3.train", "--algo", "sac", "--env", "SMATracking-v0", "--gym-packages", "sma_gym",
-        "--conf-file", str(FILES["sac"]), "-n", "400", "--eval-freq", "-1", "--num-threads", "1", "--seed", "0",
-        "-f", str(tmp_path), "-params", "learning_starts:100", "buffer_size:1000",
+        sys.executable,
+        "-m",
+        "rl_zoo3.train",
+        "--algo",
+        "sac",
+        "--env",
+        "SMATracking-v0",
+        "--gym-packages",
+        "sma_gym",
+        "--conf-file",
+        str(FILES["sac"]),
+        "-n",
+        "400",
+        "--eval-freq",
+        "-1",
+        "--num-threads",
+        "1",
+        "--seed",
+        "0",
+        "-f",
+        str(tmp_path),
+        "-params",
+        "learning_starts:100",
+        "buffer_size:1000",
     ]
     proc = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -201,4 +246,9 @@ def test_the_zoo_trains_our_default_agent_from_our_file(tmp_path):
     model = SAC.load(model_zip, device="cpu")
     raw = gym.make("SMATracking-v0").observation_space.shape[0]
     assert model.observation_space.shape == (raw + 1 + 5,)
-    assert model.batch_size == 256 and model.tau == 0.02 and model.gradient_steps == 2 and list(model.policy.net_arch) == [256, 256]
+    assert (
+        model.batch_size == 256
+        and model.tau == 0.02
+        and model.gradient_steps == 2
+        and list(model.policy.net_arch) == [256, 256]
+    )

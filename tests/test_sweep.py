@@ -43,15 +43,29 @@ def test_summary_counts_seeds_that_met_each_goal():
     summary = summarise_seeds({0: goals(0.5, True), 1: goals(0.9, True), 2: goals(1.2, False)})
     entry = summary["RMS step below every baseline"]
     assert entry["met"] == 2 and entry["seeds"] == 3
-    assert entry["agent_mm"]["values"] == [0.5, 0.9, 1.2] and entry["agent_mm"]["iqm"] == pytest.approx(2.6 / 3)  # three seeds: nothing trimmed
+    assert entry["agent_mm"]["values"] == [0.5, 0.9, 1.2] and entry["agent_mm"]["iqm"] == pytest.approx(
+        2.6 / 3
+    )  # three seeds: nothing trimmed
     assert entry["best_baseline_mm"]["ci95"] == [1.0, 1.0]
 
 
 def test_each_seed_runs_train_py_with_the_same_options_and_its_own_seed_and_folder(tmp_path):
     parser = build_parser()
-    args = parse_args(["--seeds", "3", "--workers", "2", "--quick", "--residual", "none", "--timesteps", "900", "--seed", "4"])
+    args = parse_args(
+        ["--seeds", "3", "--workers", "2", "--quick", "--residual", "none", "--timesteps", "900", "--seed", "4"]
+    )
     argv = seed_argv(parser, args, 5, tmp_path / "seed-5")
-    assert argv == ["--timesteps", "900", "--residual", "none", "--quick", "--seed", "5", "--out", str(tmp_path / "seed-5")]
+    assert argv == [
+        "--timesteps",
+        "900",
+        "--residual",
+        "none",
+        "--quick",
+        "--seed",
+        "5",
+        "--out",
+        str(tmp_path / "seed-5"),
+    ]
     # What a seed's process would run is an ordinary train.py configuration.
     assert parse_args(argv).seed == 5 and parse_args(argv).seeds is None
 

@@ -20,7 +20,11 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
     out = tmp_path / "run"
     proc = subprocess.run(
         [sys.executable, str(ROOT / "train.py"), "--quick", "--no-progress", "--out", str(out)],
-        check=False, capture_output=True, text=True, timeout=900, cwd=tmp_path,
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=900,
+        cwd=tmp_path,
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert f"run folder: {out}" in proc.stdout
@@ -55,9 +59,26 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
         obs, *_ = env.step(action)
     # sma-gym evaluate --policy scores it beside the baselines.
     proc = subprocess.run(
-        [sys.executable, "-m", "sma_gym.cli", "evaluate", "--policy", str(out / "best_model.zip"), "--experiments", "6.1",
-         "--seeds", "1", "--baselines", "PID", "--json"],
-        check=False, capture_output=True, text=True, timeout=900, cwd=tmp_path,
+        [
+            sys.executable,
+            "-m",
+            "sma_gym.cli",
+            "evaluate",
+            "--policy",
+            str(out / "best_model.zip"),
+            "--experiments",
+            "6.1",
+            "--seeds",
+            "1",
+            "--baselines",
+            "PID",
+            "--json",
+        ],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=900,
+        cwd=tmp_path,
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     rows = json.loads(proc.stdout)
@@ -65,11 +86,29 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
 
 
 def test_train_rejects_bad_options():
-    proc = subprocess.run([sys.executable, str(ROOT / "train.py"), "--env", "NoSuchEnv-v0"], check=False, capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "train.py"), "--env", "NoSuchEnv-v0"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2 and "NoSuchEnv-v0" in proc.stderr
-    proc = subprocess.run([sys.executable, str(ROOT / "train.py"), "--timesteps", "0"], check=False, capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "train.py"), "--timesteps", "0"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2 and "timesteps" in proc.stderr
-    proc = subprocess.run([sys.executable, str(ROOT / "train.py"), "--threads", "0"], check=False, capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "train.py"), "--threads", "0"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2 and "threads" in proc.stderr
 
 
@@ -90,7 +129,9 @@ def test_train_py_is_a_thin_shell_over_agents_training():
 def test_train_settings_come_from_the_hyperparameter_file_and_options_override():
     run = RunConfig.from_args(parse_args([]))
     assert run.algo == "sac" and run.history == "ema" and run.residual == "VSC3 + FF"
-    run = RunConfig.from_args(parse_args(["--residual", "none", "--history", "none", "--algo", "ppo", "--timesteps", "1000"]))
+    run = RunConfig.from_args(
+        parse_args(["--residual", "none", "--history", "none", "--algo", "ppo", "--timesteps", "1000"])
+    )
     assert run.residual is None and run.history == "none" and run.timesteps == 1000 and "n_steps" in run.model_kwargs
     with pytest.raises(ValueError, match="residual"):
         RunConfig.from_args(parse_args(["--residual", "LQR"]))
@@ -114,7 +155,9 @@ def test_one_card_type_writes_and_reads_one_suffix(tmp_path):
     card = run.card(run.agent_name, timesteps=100, validation_return=-3.5)
     assert card.save(zip_path) == card_path(zip_path) == tmp_path / f"best_model{CARD_SUFFIX}"
     loaded = PolicyCard.load(zip_path)
-    assert loaded.model_sha256 and loaded == PolicyCard.from_dict({**card.as_dict(), "model_sha256": loaded.model_sha256})
+    assert loaded.model_sha256 and loaded == PolicyCard.from_dict(
+        {**card.as_dict(), "model_sha256": loaded.model_sha256}
+    )
     written = json.loads(card_path(zip_path).read_text())
     assert list(written)[:3] == ["format", "version", "algo"] and "train_time_s" not in written
     assert written["residual"] == "VSC3 + FF" and written["history"] == "ema" and written["validation_return"] == -3.5

@@ -54,7 +54,9 @@ class Goal:
     baseline_key: str = "best_baseline_mm"
     """Name of the baseline's figure in ``goals.json``."""
 
-    def check(self, value: Callable[[str, str], float], agent: str, baselines: Sequence[str], conditions: Sequence[str]) -> dict[str, Any]:
+    def check(
+        self, value: Callable[[str, str], float], agent: str, baselines: Sequence[str], conditions: Sequence[str]
+    ) -> dict[str, Any]:
         """``{"agent_mm", <baseline_key>, "met"}``; ``value(policy, condition)`` reads the metric."""
 
         def figure(policy: str) -> float:
@@ -71,13 +73,23 @@ GOALS: dict[str, tuple[Goal, ...]] = {
     TRACKING: (
         Goal("RMS step below every baseline", "step"),
         Goal("RMS sine below every baseline", "sine"),
-        Goal("overshoot no larger than VSC3 + FF's", "step", "overshoot_m", against="VSC3 + FF", strict=False, slack_m=1e-9, baseline_key="vsc3_ff_mm"),
+        Goal(
+            "overshoot no larger than VSC3 + FF's",
+            "step",
+            "overshoot_m",
+            against="VSC3 + FF",
+            strict=False,
+            slack_m=1e-9,
+            baseline_key="vsc3_ff_mm",
+        ),
     ),
     SELF_SENSING: tuple(
-        Goal(f"RMS {ref} within 2x of the best baseline with a position sensor", ref, factor=2.0, strict=False) for ref in ("step", "sine")
+        Goal(f"RMS {ref} within 2x of the best baseline with a position sensor", ref, factor=2.0, strict=False)
+        for ref in ("step", "sine")
     ),
     ROBUST: tuple(
-        Goal(f"worst-case RMS {ref} over chapter-7 conditions < best baseline's", ref, over_conditions=True) for ref in ("step", "sine")
+        Goal(f"worst-case RMS {ref} over chapter-7 conditions < best baseline's", ref, over_conditions=True)
+        for ref in ("step", "sine")
     ),
 }
 """What each env's agent must achieve against the baselines (``results.md``, ``goals.json``)."""
@@ -113,7 +125,9 @@ def compare(run: RunConfig, out: Path) -> tuple[str, dict[str, Any]]:
     return summarise(run, results, agent.name, conditions)
 
 
-def summarise(run: RunConfig, results: Results, agent: str, conditions: list[tuple[str, str]]) -> tuple[str, dict[str, Any]]:
+def summarise(
+    run: RunConfig, results: Results, agent: str, conditions: list[tuple[str, str]]
+) -> tuple[str, dict[str, Any]]:
     """``results.md``'s table of the agent and baselines, and its goals (:data:`GOALS`) checked."""
     experiment = "7" if run.env_id == ROBUST else "6.1"
     policies = results.distinct(experiment, "policy")
@@ -147,7 +161,8 @@ def summarise(run: RunConfig, results: Results, agent: str, conditions: list[tup
     with_sensor = [p for p in policies if p != agent and "self-sensing" not in p]
     labels = [c for c, _ in conditions]
     goals = {
-        g.name: g.check(lambda p, c, g=g: get(p, c, g.reference, g.metric), agent, with_sensor, labels) for g in GOALS.get(run.env_id, ())
+        g.name: g.check(lambda p, c, g=g: get(p, c, g.reference, g.metric), agent, with_sensor, labels)
+        for g in GOALS.get(run.env_id, ())
     }
     lines += ["", "## Goals", ""]
     for name, g in goals.items():

@@ -33,12 +33,21 @@ RESIDUAL_WRAPPER = "agents.training.envs.ResidualVecEnv"
 HISTORY_WRAPPER = "agents.training.envs.HistoryVecEnv"
 NOT_FOR_TRAIN_PY = {
     "SMAMultiplexed-v0": "train.py compares its agent with the report's single-wire controllers; "
-    "train this env with RL Zoo (README \"Training\")",
+    'train this env with RL Zoo (README "Training")',
 }
 """Env ids the hyperparameter files hold for RL Zoo only, with the reason."""
 _RUN_KEYS = ("n_timesteps", "n_envs", "frame_stack", "vec_env_wrapper", "env_kwargs")
 """Zoo keys that configure the run; the rest go to the algorithm."""
-_ZOO_ONLY_KEYS = ("normalize", "env_wrapper", "callback", "monitor_kwargs", "replay_buffer_class", "replay_buffer_kwargs", "noise_type", "noise_std")
+_ZOO_ONLY_KEYS = (
+    "normalize",
+    "env_wrapper",
+    "callback",
+    "monitor_kwargs",
+    "replay_buffer_class",
+    "replay_buffer_kwargs",
+    "noise_type",
+    "noise_std",
+)
 """Zoo keys train.py does not implement: refused rather than silently ignored."""
 
 DESCRIPTION = "Train a stable-baselines3 agent on an sma-gym env and compare it with the report's controllers."
@@ -88,7 +97,9 @@ def agent_features(wrappers: Any) -> tuple[str, str | None, float]:
     if names not in ([], [RESIDUAL_WRAPPER], [HISTORY_WRAPPER], [RESIDUAL_WRAPPER, HISTORY_WRAPPER]):
         # train.py rebuilds the agent's view at evaluation (agents.trained.AgentPolicy), which
         # knows these two features in this order only.
-        raise ValueError(f"vec_env_wrapper {names}: train.py knows {RESIDUAL_WRAPPER} then {HISTORY_WRAPPER}, each optional")
+        raise ValueError(
+            f"vec_env_wrapper {names}: train.py knows {RESIDUAL_WRAPPER} then {HISTORY_WRAPPER}, each optional"
+        )
     kwargs = dict(parsed)
     residual = kwargs.get(RESIDUAL_WRAPPER)
     if residual is not None and set(residual) - {"base", "scale"}:
@@ -106,9 +117,16 @@ def agent_features(wrappers: Any) -> tuple[str, str | None, float]:
 
 def build_parser() -> argparse.ArgumentParser:
     """``train.py``'s command line."""
-    p = argparse.ArgumentParser(prog="train.py", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        prog="train.py", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("--env", default="SMATracking-v0", help="env id (default SMATracking-v0)")
-    p.add_argument("--algo", choices=ALGOS, default=DEFAULT_ALGO, help=f"algorithm: reads hyperparams/<algo>.yml (default {DEFAULT_ALGO})")
+    p.add_argument(
+        "--algo",
+        choices=ALGOS,
+        default=DEFAULT_ALGO,
+        help=f"algorithm: reads hyperparams/<algo>.yml (default {DEFAULT_ALGO})",
+    )
     p.add_argument("--timesteps", type=int, help="total environment steps (default: from the hyperparameter file)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument(
@@ -118,17 +136,27 @@ def build_parser() -> argparse.ArgumentParser:
         f"{EVAL_FREQ['ppo']} for PPO), as RL Zoo's --eval-freq",
     )
     p.add_argument("--n-envs", type=int, help="parallel envs in the native vector env (default: from the file)")
-    p.add_argument("--frame-stack", type=int, help="observations stacked as the agent's history (default: from the file)")
+    p.add_argument(
+        "--frame-stack", type=int, help="observations stacked as the agent's history (default: from the file)"
+    )
     p.add_argument("--history", choices=HISTORIES, help="history features (agents/history.py; default: from the file)")
-    p.add_argument("--residual", help="base controller the agent corrects, e.g. 'VSC3 + FF', or 'none' (default: from the file)")
-    p.add_argument("--out", help="run folder (default runs/<env>-<algo>-<time>); must be new or empty unless --overwrite")
+    p.add_argument(
+        "--residual", help="base controller the agent corrects, e.g. 'VSC3 + FF', or 'none' (default: from the file)"
+    )
+    p.add_argument(
+        "--out", help="run folder (default runs/<env>-<algo>-<time>); must be new or empty unless --overwrite"
+    )
     p.add_argument(
         "--overwrite",
         action="store_true",
         help="allow a non-empty --out: the previous run's outputs there are deleted first (default: refuse a non-empty --out)",
     )
     p.add_argument("--device", default="cpu", help="torch device, e.g. cpu, cuda, cuda:1, mps (default cpu)")
-    p.add_argument("--quick", action="store_true", help=f"tiny budget ({QUICK_TIMESTEPS} steps) and a short evaluation, for smoke tests")
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"tiny budget ({QUICK_TIMESTEPS} steps) and a short evaluation, for smoke tests",
+    )
     p.add_argument(
         "--threads",
         type=int,
@@ -187,7 +215,9 @@ class RunConfig:
         table = load_hyperparams(args.env, algo)
         refused = sorted(set(table) & set(_ZOO_ONLY_KEYS))
         if refused:
-            raise ValueError(f"{hyperparams_path(algo).name} [{args.env}]: train.py does not implement {refused} (RL Zoo does)")
+            raise ValueError(
+                f"{hyperparams_path(algo).name} [{args.env}]: train.py does not implement {refused} (RL Zoo does)"
+            )
         model_kwargs = {k: v for k, v in table.items() if k not in _RUN_KEYS}
         if "policy_kwargs" in model_kwargs:
             model_kwargs["policy_kwargs"] = literal_kwargs(model_kwargs["policy_kwargs"], "policy_kwargs")
@@ -196,7 +226,9 @@ class RunConfig:
         eval_freq = EVAL_FREQ[algo] if args.eval_freq is None else args.eval_freq
         if args.quick:
             timesteps, eval_freq = QUICK_TIMESTEPS, 500
-            model_kwargs.update({"learning_starts": 200, "buffer_size": 10_000} if algo == "sac" else {"n_steps": 64, "batch_size": 64})
+            model_kwargs.update(
+                {"learning_starts": 200, "buffer_size": 10_000} if algo == "sac" else {"n_steps": 64, "batch_size": 64}
+            )
         residual = (None if args.residual == "none" else args.residual) if args.residual else file_residual
         run = cls(
             env_id=args.env,
@@ -229,7 +261,9 @@ class RunConfig:
         if self.frame_stack > 1 and (self.history != "none" or self.residual is not None):
             # The evaluation harness stacks raw env observations; stacking on top of history
             # features or a residual base would be seen differently in training and evaluation.
-            raise ValueError(f"--frame-stack {self.frame_stack} with history or residual: expected --frame-stack 1, or --history none --residual none")
+            raise ValueError(
+                f"--frame-stack {self.frame_stack} with history or residual: expected --frame-stack 1, or --history none --residual none"
+            )
         if self.history not in HISTORIES:
             raise ValueError(f"history = {self.history!r}: expected 'none' or 'ema'")
         residual = self.residual
@@ -237,7 +271,9 @@ class RunConfig:
             try:
                 residual = spec_by_label(residual).label
             except ValueError as err:
-                raise ValueError(f"--residual {residual!r}: expected 'none' or one of {[c.label for c in ALL_SPECS]}") from err
+                raise ValueError(
+                    f"--residual {residual!r}: expected 'none' or one of {[c.label for c in ALL_SPECS]}"
+                ) from err
         if not 0.0 < self.residual_scale <= 1.0:
             raise ValueError(f"residual_scale = {self.residual_scale}: expected a fraction of full duty in (0, 1]")
         return self if residual == self.residual else replace(self, residual=residual)
@@ -274,10 +310,14 @@ def check_device(device: str) -> str:
     try:
         parsed = torch.device(device)
     except (RuntimeError, TypeError) as err:
-        raise ValueError(f"--device {device!r}: not a torch device ({err}); expected e.g. cpu, cuda, cuda:0, mps") from None
+        raise ValueError(
+            f"--device {device!r}: not a torch device ({err}); expected e.g. cpu, cuda, cuda:0, mps"
+        ) from None
     available = {
         "cpu": lambda: True,
-        "cuda": lambda: torch.cuda.is_available() and (parsed.index is None or parsed.index < torch.cuda.device_count()),
+        "cuda": lambda: (
+            torch.cuda.is_available() and (parsed.index is None or parsed.index < torch.cuda.device_count())
+        ),
         "mps": lambda: bool(getattr(torch.backends, "mps", None)) and torch.backends.mps.is_available(),
     }
     if parsed.type not in available:
@@ -288,8 +328,17 @@ def check_device(device: str) -> str:
 
 
 RUN_OUTPUTS = (
-    "run.json", "results.md", "goals.json", "best_model.zip", f"best_model{CARD_SUFFIX}", "final_model.zip",
-    f"final_model{CARD_SUFFIX}", "checkpoints", "evaluation", "validation", "tb",
+    "run.json",
+    "results.md",
+    "goals.json",
+    "best_model.zip",
+    f"best_model{CARD_SUFFIX}",
+    "final_model.zip",
+    f"final_model{CARD_SUFFIX}",
+    "checkpoints",
+    "evaluation",
+    "validation",
+    "tb",
 )
 """What a run writes into its folder: what ``--overwrite`` deletes first, and nothing else."""
 

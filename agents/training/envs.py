@@ -60,7 +60,9 @@ class ResidualVecEnv(VecEnvWrapper):
             if "terminal_observation" in infos[i]:
                 # The ended episode's last base duty (the controller is not stepped again:
                 # its state now belongs to the new episode).
-                infos[i]["terminal_observation"] = np.append(infos[i]["terminal_observation"], self.residual.base_duty[i]).astype(np.float32)
+                infos[i]["terminal_observation"] = np.append(
+                    infos[i]["terminal_observation"], self.residual.base_duty[i]
+                ).astype(np.float32)
         return self.residual.observe(np.asarray(obs, dtype=float), dones), rewards, dones, infos
 
 
@@ -74,9 +76,13 @@ class HistoryVecEnv(VecEnvWrapper):
 
     def __init__(self, venv: VecEnv, history: HistoryFeatures | None = None):
         if history is None:
-            history = HistoryFeatures(venv.num_envs, tuple(env_attr(venv, "feature_names")), float(env_attr(venv, "control_period_s")))
+            history = HistoryFeatures(
+                venv.num_envs, tuple(env_attr(venv, "feature_names")), float(env_attr(venv, "control_period_s"))
+            )
         if history.n != venv.num_envs:
-            raise ValueError(f"history features for {history.n} envs: expected {venv.num_envs} (the vector env's num_envs)")
+            raise ValueError(
+                f"history features for {history.n} envs: expected {venv.num_envs} (the vector env's num_envs)"
+            )
         self.history = history
         super().__init__(venv, observation_space=self.history.observation_space(venv.observation_space))
 
@@ -96,7 +102,15 @@ class HistoryVecEnv(VecEnvWrapper):
         return out, rewards, dones, infos
 
 
-def agent_view(venv: VecEnv, env_id: str, env_kwargs: dict[str, Any], frame_stack: int, history: str, residual: str | None, residual_scale: float) -> VecEnv:
+def agent_view(
+    venv: VecEnv,
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    frame_stack: int,
+    history: str,
+    residual: str | None,
+    residual_scale: float,
+) -> VecEnv:
     """What the agent sees and does on top of the env: residual base controller, history
     features, frame stack (the order :class:`agents.trained.AgentPolicy` rebuilds)."""
     if residual is not None:
@@ -125,7 +139,9 @@ def make_vec_env(
         kwargs["max_episode_steps"] = max_episode_steps
     if gym.spec(env_id).vector_entry_point is not None:
         # The adapter reports episodes itself (as Monitor does): no VecMonitor on top.
-        venv = SB3VecEnv(gym.make_vec("sma_gym:" + env_id, num_envs=n_envs, vectorization_mode="vector_entry_point", **kwargs))
+        venv = SB3VecEnv(
+            gym.make_vec("sma_gym:" + env_id, num_envs=n_envs, vectorization_mode="vector_entry_point", **kwargs)
+        )
     else:
         venv = VecMonitor(DummyVecEnv([lambda: gym.make("sma_gym:" + env_id, **kwargs)] * n_envs))
     venv = agent_view(venv, env_id, kwargs, frame_stack, history, residual, residual_scale)
@@ -135,7 +151,9 @@ def make_vec_env(
 
 def make_training_env(run: RunConfig) -> VecEnv:
     """The run's training envs (:func:`make_vec_env` with its settings)."""
-    return make_vec_env(run.env_id, run.n_envs, run.env_kwargs, run.frame_stack, run.seed, run.history, run.residual, run.residual_scale)
+    return make_vec_env(
+        run.env_id, run.n_envs, run.env_kwargs, run.frame_stack, run.seed, run.history, run.residual, run.residual_scale
+    )
 
 
 def validation_references(count: int = 8) -> list[dict[str, Any]]:
@@ -157,6 +175,14 @@ def make_validation_env(run: RunConfig, references: list[dict[str, Any]]) -> Vec
         (lambda ref=ref: gym.make("sma_gym:" + run.env_id, **{**run.env_kwargs, "reference": ref}))
         for ref in references
     ]
-    venv = agent_view(VecMonitor(DummyVecEnv(fns)), run.env_id, run.env_kwargs, run.frame_stack, run.history, run.residual, run.residual_scale)
+    venv = agent_view(
+        VecMonitor(DummyVecEnv(fns)),
+        run.env_id,
+        run.env_kwargs,
+        run.frame_stack,
+        run.history,
+        run.residual,
+        run.residual_scale,
+    )
     venv.seed(VALIDATION_SEED)
     return venv

@@ -71,7 +71,9 @@ class SaveBest(BaseCallback):
         self.path = path
 
     def _on_step(self) -> bool:
-        card = self.run.card(self.run.agent_name, timesteps=self.num_timesteps, validation_return=float(self.parent.best_mean_reward))
+        card = self.run.card(
+            self.run.agent_name, timesteps=self.num_timesteps, validation_return=float(self.parent.best_mean_reward)
+        )
         save_policy(self.model, self.path, card)
         return True
 
@@ -100,7 +102,9 @@ def make_model(run: RunConfig, venv: Any, out: Path) -> Any:
     kwargs = dict(run.model_kwargs)
     policy = kwargs.pop("policy", "MlpPolicy")
     algo_cls = {"sac": SAC, "ppo": PPO}[run.algo]
-    return algo_cls(policy, venv, seed=run.seed, device=run.device, tensorboard_log=str(out / "tb"), verbose=0, **kwargs)
+    return algo_cls(
+        policy, venv, seed=run.seed, device=run.device, tensorboard_log=str(out / "tb"), verbose=0, **kwargs
+    )
 
 
 def train(run: RunConfig, out: Path, progress: bool = True) -> TrainingInfo:
@@ -128,7 +132,10 @@ def train(run: RunConfig, out: Path, progress: bool = True) -> TrainingInfo:
         verbose=0,
     )
     bar = progress and sys.stdout.isatty()
-    items: list[BaseCallback] = [evaluation, CardedCheckpoints(run, save_freq=per_env * 2, save_path=str(out / "checkpoints"))]
+    items: list[BaseCallback] = [
+        evaluation,
+        CardedCheckpoints(run, save_freq=per_env * 2, save_path=str(out / "checkpoints")),
+    ]
     if progress and not bar:
         items.append(ProgressLines(run.timesteps))
     start = time.perf_counter()

@@ -13,7 +13,9 @@ from typing import Any
 from agents.training.config import RunConfig, prepare_out
 
 
-def train_and_compare(run: RunConfig, out: Path, *, overwrite: bool = False, progress: bool = True) -> tuple[str, dict[str, Any]]:
+def train_and_compare(
+    run: RunConfig, out: Path, *, overwrite: bool = False, progress: bool = True
+) -> tuple[str, dict[str, Any]]:
     """Train ``run`` into ``out`` and compare its best model with the baselines; write
     ``run.json``, ``results.md`` and ``goals.json``. ``(results.md text, goals)``;
     ``ValueError`` if ``out`` is not new or empty (unless ``overwrite``) or is in use."""
@@ -40,6 +42,11 @@ def train_and_compare(run: RunConfig, out: Path, *, overwrite: bool = False, pro
         write_text(out / "results.md", table)
         write_json(
             out / "goals.json",
-            {"goals": goals, "train_time_s": info.train_time_s, "total_time_s": total, "validation_references": info.validation_references},
+            {
+                "goals": goals,
+                "train_time_s": info.train_time_s,
+                "total_time_s": total,
+                "validation_references": info.validation_references,
+            },
         )
     return table, goals

@@ -46,7 +46,11 @@ def iqm(values: Any, axis: int | None = None) -> Any:
 
 
 def bootstrap_ci(
-    values: Any, statistic: Any = iqm, resamples: int = BOOTSTRAP_RESAMPLES, confidence: float = CONFIDENCE, seed: int = BOOTSTRAP_SEED
+    values: Any,
+    statistic: Any = iqm,
+    resamples: int = BOOTSTRAP_RESAMPLES,
+    confidence: float = CONFIDENCE,
+    seed: int = BOOTSTRAP_SEED,
 ) -> tuple[float, float]:
     """Percentile bootstrap interval of ``statistic`` over runs (seeds), reproducible by
     ``seed``: the runs are resampled with replacement ``resamples`` times."""
@@ -61,7 +65,9 @@ def bootstrap_ci(
     return float(lo), float(hi)
 
 
-def summarise_seeds(goals_by_seed: dict[int, dict[str, dict[str, Any]]], resamples: int = BOOTSTRAP_RESAMPLES) -> dict[str, Any]:
+def summarise_seeds(
+    goals_by_seed: dict[int, dict[str, dict[str, Any]]], resamples: int = BOOTSTRAP_RESAMPLES
+) -> dict[str, Any]:
     """Per goal: each figure (``agent_mm``, the baseline's) as per-seed values, IQM and
     95 % interval, and how many seeds met the goal. ``goals_by_seed``: seed -> the
     ``goals`` of that run's ``goals.json``."""
@@ -74,14 +80,20 @@ def summarise_seeds(goals_by_seed: dict[int, dict[str, dict[str, Any]]], resampl
         entry: dict[str, Any] = {}
         for key in figures:
             values = [float(r[key]) for r in runs]
-            entry[key] = {"values": values, "iqm": float(iqm(values)), "ci95": list(bootstrap_ci(values, resamples=resamples))}
+            entry[key] = {
+                "values": values,
+                "iqm": float(iqm(values)),
+                "ci95": list(bootstrap_ci(values, resamples=resamples)),
+            }
         entry["met"] = sum(bool(r["met"]) for r in runs)
         entry["seeds"] = len(runs)
         out[name] = entry
     return out
 
 
-def seeds_table(run: RunConfig, seeds: list[int], summary: dict[str, Any], failed: list[int], elapsed_s: float, workers: int) -> str:
+def seeds_table(
+    run: RunConfig, seeds: list[int], summary: dict[str, Any], failed: list[int], elapsed_s: float, workers: int
+) -> str:
     """``seeds.md``: one row per goal, IQM [95 % interval] of the agent and the baseline."""
     budget = f"{run.timesteps} steps{' (--quick)' if run.quick else ''}, {run.n_envs} envs"
     lines = [
@@ -103,7 +115,9 @@ def seeds_table(run: RunConfig, seeds: list[int], summary: dict[str, Any], faile
 
     for name, entry in summary.items():
         baseline = next(k for k in entry if k not in ("agent_mm", "met", "seeds"))
-        lines.append(f"| {name} | {cell(entry['agent_mm'])} | {cell(entry[baseline])} ({baseline.removesuffix('_mm')}) | {entry['met']}/{entry['seeds']} |")
+        lines.append(
+            f"| {name} | {cell(entry['agent_mm'])} | {cell(entry[baseline])} ({baseline.removesuffix('_mm')}) | {entry['met']}/{entry['seeds']} |"
+        )
     if failed:
         lines += ["", f"Failed seeds (see logs/): {', '.join(map(str, failed))}; the table is over the others."]
     return "\n".join(lines) + "\n"
@@ -139,7 +153,9 @@ def _run_seed_process(argv: list[str], log: Path, threads: int) -> int:
         env.setdefault(name, str(threads))
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
     with log.open("w") as handle:
-        return subprocess.run(seed_command(argv), stdout=handle, stderr=subprocess.STDOUT, env=env, check=False).returncode
+        return subprocess.run(
+            seed_command(argv), stdout=handle, stderr=subprocess.STDOUT, env=env, check=False
+        ).returncode
 
 
 def run_seed(options: list[str], seed: int, out: str | Path) -> dict[str, Any]:
@@ -170,8 +186,13 @@ def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int
     started = time.perf_counter()
 
     def one(seed: int) -> int:
-        code = _run_seed_process(seed_argv(parser, args, seed, out / f"seed-{seed}"), out / "logs" / f"seed-{seed}.log", run.threads)
-        print(f"train.py: seed {seed} {'done' if code == 0 else f'FAILED (exit {code}, see logs/seed-{seed}.log)'}", flush=True)
+        code = _run_seed_process(
+            seed_argv(parser, args, seed, out / f"seed-{seed}"), out / "logs" / f"seed-{seed}.log", run.threads
+        )
+        print(
+            f"train.py: seed {seed} {'done' if code == 0 else f'FAILED (exit {code}, see logs/seed-{seed}.log)'}",
+            flush=True,
+        )
         return code
 
     # Threads only wait on the child processes, which do the work.
@@ -192,7 +213,12 @@ def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int
             "workers": args.workers,
             "elapsed_s": elapsed,
             "statistic": "interquartile mean (scipy.stats.trim_mean, 0.25)",
-            "interval": {"method": "percentile bootstrap over seeds", "confidence": CONFIDENCE, "resamples": BOOTSTRAP_RESAMPLES, "seed": BOOTSTRAP_SEED},
+            "interval": {
+                "method": "percentile bootstrap over seeds",
+                "confidence": CONFIDENCE,
+                "resamples": BOOTSTRAP_RESAMPLES,
+                "seed": BOOTSTRAP_SEED,
+            },
             "goals": summary,
         },
         default=str,
