@@ -83,8 +83,12 @@ def case(effect: str | None, seed: int, max_rounds: int = DEFAULT_MAX_ROUNDS) ->
         forms = EFFECTS[effect].forms
         form = forms[1] if len(forms) > 1 else "default"
     model = ModelConfig()
-    fit, _ = generate(SynthSpec(model, effect=effect, form=form, excitation="steps", duration_s=60.0, perturb=0.05, seed=seed))
-    held, _ = generate(SynthSpec(model, effect=effect, form=form, excitation="sine", duration_s=40.0, perturb=0.05, seed=seed))
+    fit, _ = generate(
+        SynthSpec(model, effect=effect, form=form, excitation="steps", duration_s=60.0, perturb=0.05, seed=seed)
+    )
+    held, _ = generate(
+        SynthSpec(model, effect=effect, form=form, excitation="sine", duration_s=40.0, perturb=0.05, seed=seed)
+    )
     start = time.perf_counter()
     result = diagnose([fit], [held], model, max_rounds=max_rounds)
     elapsed = time.perf_counter() - start
@@ -235,8 +239,15 @@ def draw_grid(n: int, seed: int = 0, generators: Sequence[str] = GENERATORS) -> 
         rate, sensors = s[_SAMPLING][j]
         cases.append(
             GridCase(
-                index=i, generator=g, truth=truth, form=form, fit_excitation=fit_exc, heldout_excitation=held_exc,
-                size=0.0 if truth == "none" else float(s[_SIZE][j]), sample_rate_hz=int(rate), sensors=sensors,
+                index=i,
+                generator=g,
+                truth=truth,
+                form=form,
+                fit_excitation=fit_exc,
+                heldout_excitation=held_exc,
+                size=0.0 if truth == "none" else float(s[_SIZE][j]),
+                sample_rate_hz=int(rate),
+                sensors=sensors,
                 seed=int(s[_DATA_SEED][j]),
             )
         )
@@ -254,8 +265,16 @@ def grid_data(case: GridCase, nominal: ModelConfig) -> tuple[MeasuredTrace, Meas
         # from the same perturbed actuator (as in the default mode).
         def ours(excitation: str, duration_s: float) -> MeasuredTrace:
             spec = SynthSpec(
-                nominal, effect=effect, effect_values=values, form=case.form, excitation=excitation,
-                duration_s=duration_s, perturb=PERTURB, sample_period_s=period, electrical=electrical, seed=case.seed,
+                nominal,
+                effect=effect,
+                effect_values=values,
+                form=case.form,
+                excitation=excitation,
+                duration_s=duration_s,
+                perturb=PERTURB,
+                sample_period_s=period,
+                electrical=electrical,
+                seed=case.seed,
             )
             return generate(spec)[0]
 
@@ -266,8 +285,14 @@ def grid_data(case: GridCase, nominal: ModelConfig) -> tuple[MeasuredTrace, Meas
 
     def independent(excitation: str, duration_s: float, seed: int) -> MeasuredTrace:
         return ind.generate(
-            actuator, excitation=excitation, duration_s=duration_s, effect=effect, effect_values=values,
-            sample_period_s=period, electrical=electrical, seed=seed,
+            actuator,
+            excitation=excitation,
+            duration_s=duration_s,
+            effect=effect,
+            effect_values=values,
+            sample_period_s=period,
+            electrical=electrical,
+            seed=seed,
         )[0]
 
     return (
@@ -300,9 +325,15 @@ def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str,
         fit, held = grid_data(case, nominal)
         t1 = time.perf_counter()
         result = diagnose([fit], [held], nominal, max_rounds=max_rounds)
-    except Exception as exc:  # noqa: BLE001 - a crash is a benchmark finding, the grid goes on
-        record.update(answer=f"error: {type(exc).__name__}: {exc}", verdict="error", category="miss", named=[],
-                      seconds_total=time.perf_counter() - t0, seconds_diagnose=math.nan)
+    except Exception as exc:
+        record.update(
+            answer=f"error: {type(exc).__name__}: {exc}",
+            verdict="error",
+            category="miss",
+            named=[],
+            seconds_total=time.perf_counter() - t0,
+            seconds_diagnose=math.nan,
+        )
         return record
     t2 = time.perf_counter()
     if result.verdict in ("effect", "effects"):
@@ -396,7 +427,19 @@ def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "clean_unexplained": len(unexplained),
         "clean_unexplained_with_refit_at_noise": len(unexplained_at_noise),
         "clean_outcomes": [
-            {k: r[k] for k in ("index", "generator", "answer", "heldout_nominal_refit", "fit_excitation", "sample_rate_hz", "sensors") if k in r}
+            {
+                k: r[k]
+                for k in (
+                    "index",
+                    "generator",
+                    "answer",
+                    "heldout_nominal_refit",
+                    "fit_excitation",
+                    "sample_rate_hz",
+                    "sensors",
+                )
+                if k in r
+            }
             for r in clean
         ],
         "median_seconds_diagnose": statistics.median(times) if times else None,
@@ -429,19 +472,33 @@ def _goals(s: dict[str, Any]) -> dict[str, dict[str, Any]]:
     if ours:
         goals["right on our generator >= 95 %"] = {"value": ours["accuracy"], "met": ours["accuracy"] >= 0.95}
         if ours["one_effect_accuracy"] is not None:
-            goals["one effect hidden (ours) >= 95 % right"] = {"value": ours["one_effect_accuracy"], "met": ours["one_effect_accuracy"] >= 0.95}
+            goals["one effect hidden (ours) >= 95 % right"] = {
+                "value": ours["one_effect_accuracy"],
+                "met": ours["one_effect_accuracy"] >= 0.95,
+            }
     if ind:
         goals["right on the independent generator >= 90 %"] = {"value": ind["accuracy"], "met": ind["accuracy"] >= 0.90}
-    goals["clean data never named an effect"] = {"value": s["clean_named_an_effect"], "met": s["clean_named_an_effect"] == 0}
-    goals["clean data never 'unexplained' when the refit reaches the noise"] = {
-        "value": s["clean_unexplained_with_refit_at_noise"], "met": s["clean_unexplained_with_refit_at_noise"] == 0,
+    goals["clean data never named an effect"] = {
+        "value": s["clean_named_an_effect"],
+        "met": s["clean_named_an_effect"] == 0,
     }
-    goals["confident wrong names < 2 %"] = {"value": s["confident_wrong_rate"], "met": (s["confident_wrong_rate"] or 0.0) < 0.02}
+    goals["clean data never 'unexplained' when the refit reaches the noise"] = {
+        "value": s["clean_unexplained_with_refit_at_noise"],
+        "met": s["clean_unexplained_with_refit_at_noise"] == 0,
+    }
+    goals["confident wrong names < 2 %"] = {
+        "value": s["confident_wrong_rate"],
+        "met": (s["confident_wrong_rate"] or 0.0) < 0.02,
+    }
     return goals
 
 
 def run_grid(
-    n: int, seed: int = 0, generators: Sequence[str] = GENERATORS, max_rounds: int = DEFAULT_MAX_ROUNDS, budget_s: float = math.inf,
+    n: int,
+    seed: int = 0,
+    generators: Sequence[str] = GENERATORS,
+    max_rounds: int = DEFAULT_MAX_ROUNDS,
+    budget_s: float = math.inf,
     first: int = 0,
 ) -> dict[str, Any]:
     """Draw, run and summarise cases ``first``..``n - 1`` of the grid; one line per case on
@@ -452,7 +509,9 @@ def run_grid(
     records = []
     for case in cases:
         if time.perf_counter() - started > budget_s:
-            print(f"budget of {budget_s / 60:.0f} min spent: {len(records)} of {n} cases run", file=sys.stderr, flush=True)
+            print(
+                f"budget of {budget_s / 60:.0f} min spent: {len(records)} of {n} cases run", file=sys.stderr, flush=True
+            )
             break
         r = run_case(case, nominal, max_rounds)
         records.append(r)
@@ -461,15 +520,26 @@ def run_grid(
             f"x{case.size:<3g} {case.fit_excitation:>6s}->{case.heldout_excitation:<6s} {case.sample_rate_hz:4d} Hz "
             f"{case.sensors:8s} -> {r['answer']} [{r['category']}] refit {r.get('heldout_nominal_refit') or math.nan:.2f} "
             f"({r['seconds_total']:.0f} s)",
-            file=sys.stderr, flush=True,
+            file=sys.stderr,
+            flush=True,
         )
     return {
         "settings": {
-            "grid": n, "first": first, "seed": seed, "generators": list(generators), "max_rounds": max_rounds,
-            "fit_duration_s": FIT_DURATION_S, "heldout_duration_s": HELDOUT_DURATION_S, "perturb": PERTURB,
-            "sizes": list(SIZES), "sampling": [list(x) for x in SAMPLING], "excitations": list(EXCITATIONS),
-            "cases_run": len(records), "wall_seconds": time.perf_counter() - started,
-            "library": list(EFFECTS), "source": _source_state(),
+            "grid": n,
+            "first": first,
+            "seed": seed,
+            "generators": list(generators),
+            "max_rounds": max_rounds,
+            "fit_duration_s": FIT_DURATION_S,
+            "heldout_duration_s": HELDOUT_DURATION_S,
+            "perturb": PERTURB,
+            "sizes": list(SIZES),
+            "sampling": [list(x) for x in SAMPLING],
+            "excitations": list(EXCITATIONS),
+            "cases_run": len(records),
+            "wall_seconds": time.perf_counter() - started,
+            "library": list(EFFECTS),
+            "source": _source_state(),
         },
         "summary": summarise(records),
         "cases": records,
@@ -487,8 +557,10 @@ def merge(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
     by_index = {c["index"]: c for r in results for c in r["cases"]}
     records = [by_index[i] for i in sorted(by_index)]
     settings.update(
-        grid=max(r["settings"]["grid"] for r in results), first=min(r["settings"].get("first", 0) for r in results),
-        cases_run=len(records), wall_seconds=sum(r["settings"]["wall_seconds"] for r in results),
+        grid=max(r["settings"]["grid"] for r in results),
+        first=min(r["settings"].get("first", 0) for r in results),
+        cases_run=len(records),
+        wall_seconds=sum(r["settings"]["wall_seconds"] for r in results),
         # The code may have moved between runs: every run's commit and modified files are kept.
         source=[r["settings"].get("source") for r in results],
     )
@@ -501,7 +573,9 @@ def _source_state() -> dict[str, Any]:
 
     def git(*args: str) -> str:
         try:
-            return subprocess.run(["git", *args], check=False, cwd=root, capture_output=True, text=True, timeout=30).stdout.strip("\n")
+            return subprocess.run(
+                ["git", *args], check=False, cwd=root, capture_output=True, text=True, timeout=30
+            ).stdout.strip("\n")
         except (OSError, subprocess.SubprocessError):
             return ""
 
@@ -522,11 +596,13 @@ def grid_markdown(result: dict[str, Any]) -> str:
     lines = [
         "# Diagnosis benchmark grid",
         "",
-        (f"`python benchmarks/bench_diagnosis.py --grid {st['grid']} --seed {st['seed']} "
-        f"{'--first ' + str(st['first']) + ' ' if st.get('first') else ''}"
-        f"--generator {'both' if len(st['generators']) > 1 else st['generators'][0]} --max-rounds {st['max_rounds']}`: "
-        f"{st['cases_run']} of {st['grid']} cases run in {st['wall_seconds'] / 60:.1f} min; fit {st['fit_duration_s']:g} s, "
-        f"held out {st['heldout_duration_s']:g} s, nominal perturbed {100 * st['perturb']:g} %."),
+        (
+            f"`python benchmarks/bench_diagnosis.py --grid {st['grid']} --seed {st['seed']} "
+            f"{'--first ' + str(st['first']) + ' ' if st.get('first') else ''}"
+            f"--generator {'both' if len(st['generators']) > 1 else st['generators'][0]} --max-rounds {st['max_rounds']}`: "
+            f"{st['cases_run']} of {st['grid']} cases run in {st['wall_seconds'] / 60:.1f} min; fit {st['fit_duration_s']:g} s, "
+            f"held out {st['heldout_duration_s']:g} s, nominal perturbed {100 * st['perturb']:g} %."
+        ),
         "",
         "## Goals",
         "",
@@ -539,13 +615,15 @@ def grid_markdown(result: dict[str, Any]) -> str:
         lines.append(f"| {goal} | {shown} | {'yes' if g['met'] else '**no**'} |")
     lines += [
         "",
-        (f"Confident wrong names: {s['confident_wrong']} of {s['cases']} ({_pct(s['confident_wrong_rate'])}, "
-        f"95 % interval {_interval(s['confident_wrong_rate_ci95'])}). "
-        f"Clean cases: {s['clean_cases']}; named an effect (effect/effects/ambiguous) {s['clean_named_an_effect']}, "
-        f"of which effect/effects {s['clean_effect_verdicts']}; unexplained {s['clean_unexplained']} "
-        f"(with the refit at the noise, <= {NOISE_STOP:g}x: {s['clean_unexplained_with_refit_at_noise']}). "
-        f"Median seconds per case: diagnosis {s['median_seconds_diagnose'] or math.nan:.0f} s, "
-        f"with data generation {s['median_seconds_per_case'] or math.nan:.0f} s. Errors: {s['errors']}."),
+        (
+            f"Confident wrong names: {s['confident_wrong']} of {s['cases']} ({_pct(s['confident_wrong_rate'])}, "
+            f"95 % interval {_interval(s['confident_wrong_rate_ci95'])}). "
+            f"Clean cases: {s['clean_cases']}; named an effect (effect/effects/ambiguous) {s['clean_named_an_effect']}, "
+            f"of which effect/effects {s['clean_effect_verdicts']}; unexplained {s['clean_unexplained']} "
+            f"(with the refit at the noise, <= {NOISE_STOP:g}x: {s['clean_unexplained_with_refit_at_noise']}). "
+            f"Median seconds per case: diagnosis {s['median_seconds_diagnose'] or math.nan:.0f} s, "
+            f"with data generation {s['median_seconds_per_case'] or math.nan:.0f} s. Errors: {s['errors']}."
+        ),
     ]
     for g, pg in s["per_generator"].items():
         labels = sorted({a for row in pg["confusion"].values() for a in row})
@@ -553,11 +631,13 @@ def grid_markdown(result: dict[str, Any]) -> str:
             "",
             f"## Generator: {g}",
             "",
-            (f"{pg['cases']} cases: right {pg['right']} ({_pct(pg['accuracy'])}, 95 % interval {_interval(pg['accuracy_ci95'])}); "
-            f"ambiguous naming the truth "
-            f"{pg['ambiguous_with_truth']}; confident wrong {pg['confident_wrong']} ({_pct(pg['confident_wrong_rate'])}); "
-            f"other misses {pg['miss']}. One effect hidden: {_pct(pg['one_effect_accuracy'])} right; "
-            f"clean: {_pct(pg['clean_accuracy'])} right."),
+            (
+                f"{pg['cases']} cases: right {pg['right']} ({_pct(pg['accuracy'])}, 95 % interval {_interval(pg['accuracy_ci95'])}); "
+                f"ambiguous naming the truth "
+                f"{pg['ambiguous_with_truth']}; confident wrong {pg['confident_wrong']} ({_pct(pg['confident_wrong_rate'])}); "
+                f"other misses {pg['miss']}. One effect hidden: {_pct(pg['one_effect_accuracy'])} right; "
+                f"clean: {_pct(pg['clean_accuracy'])} right."
+            ),
             "",
             "| truth \\ answer | " + " | ".join(labels) + " |",
             "|---" * (len(labels) + 1) + "|",
@@ -571,15 +651,22 @@ def grid_markdown(result: dict[str, Any]) -> str:
         "",
         "## Cases",
         "",
-        ("Held-out normalised RMS (1 = the noise) of the model as given, the nominal refit and the last round's "
-        "model (the model as given when nothing was found); held-out position RMS of the nominal and the corrected model."),
+        (
+            "Held-out normalised RMS (1 = the noise) of the model as given, the nominal refit and the last round's "
+            "model (the model as given when nothing was found); held-out position RMS of the nominal and the corrected model."
+        ),
         "",
         "| # | generator | truth | size | fit -> held out | rate | sensors | answer | category | held-out RMS | position [mm] | s |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in result["cases"]:
-        rms = "/".join("-" if r.get(k) is None else f"{r[k]:.2f}" for k in ("heldout_as_given", "heldout_nominal_refit", "heldout_final"))
-        mm = " -> ".join("-" if r.get(k) is None else f"{1e3 * r[k]:.3f}" for k in ("position_rms_before_m", "position_rms_after_m"))
+        rms = "/".join(
+            "-" if r.get(k) is None else f"{r[k]:.2f}"
+            for k in ("heldout_as_given", "heldout_nominal_refit", "heldout_final")
+        )
+        mm = " -> ".join(
+            "-" if r.get(k) is None else f"{1e3 * r[k]:.3f}" for k in ("position_rms_before_m", "position_rms_after_m")
+        )
         lines.append(
             f"| {r['index']} | {r['generator']} | {r['truth']} | {r['size']:g} | {r['fit_excitation']} -> {r['heldout_excitation']} | "
             f"{r['sample_rate_hz']} Hz | {r['sensors']} | {r['answer']} | {r['category']} | {rms} | {mm} | {r['seconds_total']:.0f} |"
@@ -592,13 +679,21 @@ def main() -> int:
     parser.add_argument("--seeds", type=int, default=3, help="default mode: seeds per truth")
     parser.add_argument("--json", action="store_true", help="print the results as JSON on stdout")
     parser.add_argument("--max-rounds", type=int, default=DEFAULT_MAX_ROUNDS, help="rounds of the iterated diagnosis")
-    parser.add_argument("--grid", type=int, default=0, metavar="N", help="run the fractional-factorial benchmark of N cases instead")
+    parser.add_argument(
+        "--grid", type=int, default=0, metavar="N", help="run the fractional-factorial benchmark of N cases instead"
+    )
     parser.add_argument("--seed", type=int, default=0, help="grid: seed of the draw and of the data")
-    parser.add_argument("--generator", choices=("ours", "independent", "both"), default="both", help="grid: truth generator(s)")
-    parser.add_argument("--budget-min", type=float, default=math.inf, help="grid: start no new case after this many minutes")
+    parser.add_argument(
+        "--generator", choices=("ours", "independent", "both"), default="both", help="grid: truth generator(s)"
+    )
+    parser.add_argument(
+        "--budget-min", type=float, default=math.inf, help="grid: start no new case after this many minutes"
+    )
     parser.add_argument("--first", type=int, default=0, help="grid: skip the first cases (continue a run cut short)")
     parser.add_argument("--out", type=Path, help="grid: write the report as markdown to this file")
-    parser.add_argument("--merge", type=Path, nargs="+", metavar="JSON", help="report on saved --grid --json runs together, run nothing")
+    parser.add_argument(
+        "--merge", type=Path, nargs="+", metavar="JSON", help="report on saved --grid --json runs together, run nothing"
+    )
     args = parser.parse_args()
     if args.grid or args.merge:
         generators = GENERATORS if args.generator == "both" else (args.generator,)
@@ -624,7 +719,9 @@ def main() -> int:
         print(f"{truth:{width}s}  " + "  ".join(f"{answers.count(c):>12d}" for c in labels))
     print(f"\naccuracy {result['accuracy'] * 100:.1f} % (goal >= 90 %)")
     print(f"false 'effect' on clean data: {result['false_effects_on_clean_data']} (goal 0)")
-    print(f"median time per diagnosis of a 60 s, 1 kHz trace (+ 40 s held out): {result['median_seconds_per_60s_trace']:.0f} s (goal < 120 s)")
+    print(
+        f"median time per diagnosis of a 60 s, 1 kHz trace (+ 40 s held out): {result['median_seconds_per_60s_trace']:.0f} s (goal < 120 s)"
+    )
     return 0
 
 
