@@ -110,3 +110,12 @@ def _residual_wrapper(venv):
     while not isinstance(venv, ResidualVecEnv):
         venv = venv.venv
     return venv
+
+
+def test_the_evaluation_records_only_info_keys_the_envs_define():
+    """The harness picks a few ``info`` keys to record; they must be names of the envs' one
+    ``INFO`` definition (a renamed key would otherwise fail only at evaluation time)."""
+    from agents.evaluation import _RECORD
+    from sma_gym.envs.task import INFO
+
+    assert set(_RECORD) <= set(INFO), sorted(set(_RECORD) - set(INFO))
