@@ -233,24 +233,7 @@ class TaskState:
     ) -> None:
         """Fill observations, rewards, termination flags and references (entry j for
         actuator ``actuators[j]``, an int64 array)."""
-        task_outputs(
-            sim.state,
-            sim.params,
-            self.observation,
-            self.kind,
-            self.params,
-            self.wp_t,
-            self.wp_x,
-            self.held,
-            self.last_duty,
-            self.energy_weight,
-            self.overheat_limit_c,
-            obs_out,
-            reward_out,
-            term_out,
-            ref_out,
-            actuators,
-        )
+        self.bind(sim, actuators, obs_out, reward_out, term_out, ref_out)()
 
     def bind(
         self,
