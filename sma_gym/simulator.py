@@ -420,6 +420,20 @@ class Simulator:
             noise = self.rng.standard_normal((1, 4, self.n)) if self._has_noise else _NO_NOISE
         advance(self.state, self.params, duty_2d, self.control_period_s, noise, _NO_RECORD, _NO_FIELDS)
 
+    def set_pulse_start(self, fraction: np.ndarray) -> None:
+        """Where each actuator's pulse starts within its PWM period, as a fraction of the period.
+
+        Resolved mode only (the averaged mode has no pulses). Latched with the duty at the
+        next period start and kept until set again; :meth:`reset` puts it back to 0 (the
+        pulse at the period start, the fixed slots' layout). A shared-budget multiplexer
+        (:meth:`~sma_gym.electrical.multiplexer.Multiplexer.layout`) lays the pulses end to
+        end with it. Raises ``ValueError`` for a wrong shape or values outside [0, 1).
+        """
+        arr = np.asarray(fraction, dtype=float)
+        if arr.shape != (self.n,) or not np.all((arr >= 0.0) & (arr < 1.0)):
+            raise ValueError(f"pulse start = {fraction!r}: expected shape ({self.n},) with values in [0, 1)")
+        self.state[:, L.S_PULSE_START_CMD] = arr
+
     def run(
         self,
         duty: np.ndarray,

@@ -118,6 +118,8 @@ from sma_gym.core.layout import (
     S_LAG2,
     S_POS_MEAS,
     S_POWER,
+    S_PULSE_START,
+    S_PULSE_START_CMD,
     S_PWM_TAU,
     S_R_MEAS,
     S_R_TRUE,
@@ -423,10 +425,21 @@ def _control_step(
                     tau = 0.0
                 state[i, S_PWM_TAU] = tau
                 state[i, S_DUTY_LATCHED] = duty
+                state[i, S_PULSE_START] = state[i, S_PULSE_START_CMD] * period
                 _take_readings(state, params, i, duty * period, t_settle, n_pos, n_r, n_i, n_v)
+            # The pulse is [pulse_start, pulse_start + on_time) of the period: pulse_start is 0
+            # on fixed slots (the slot is the phase-shifted period) and where the previous
+            # actuators' pulses end on a shared budget. 0.0 + x == x, so fixed slots are
+            # bit for bit what they were.
+            pulse_start = state[i, S_PULSE_START]
             on_time = state[i, S_DUTY_LATCHED] * period
-            switched_on = tau < on_time - edge_tol and state[i, S_EOT_CUT] < 0.5
-            edge = on_time if switched_on else period
+            pulse_end = pulse_start + on_time
+            if tau < pulse_start - edge_tol:
+                switched_on = False
+                edge = pulse_start
+            else:
+                switched_on = tau < pulse_end - edge_tol and state[i, S_EOT_CUT] < 0.5
+                edge = pulse_end if switched_on else period
             seg = edge - tau
             if seg < MIN_SUBSTEP_S:
                 # Rounding sliver just before an edge: move the clock past it, no integration.
@@ -498,7 +511,9 @@ def _control_step(
             energy = power * seg
             if resolved:
                 if switched_on:
-                    energy = power * pulse_integral(tau, tau + seg, tau_rise, rise_form)
+                    # The rise of the current is timed from the switch-on edge.
+                    t_on = max(tau - pulse_start, 0.0)
+                    energy = power * pulse_integral(t_on, t_on + seg, tau_rise, rise_form)
                 state[i, S_PWM_TAU] = tau + seg
             _substep(state, params, i, seg, energy, shift_h, shift_c, weights, nodes0, nodes1, u_star, n_nodes)
             if not watch or attempt == 1:

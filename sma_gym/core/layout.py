@@ -90,7 +90,12 @@ S_TIME = S_FORCE + 1  # simulated time since reset [s]
 S_T_RESET = S_TIME + 1  # temperature at the last reset [degC] (energy balance)
 S_E_LATENT = S_T_RESET + 1  # latent heat released into the wire since reset [J]
 S_T_SURR = S_E_LATENT + 1  # temperature of the air and parts the wire convects to [degC]
-N_STATE = S_T_SURR + 1
+# Where in its PWM period the pulse starts, as a fraction of the period: commanded (written by
+# Simulator.set_pulse_start, 0 = at the period start, the fixed slots' layout) and latched at
+# each period start like the duty (resolved mode; a shared-budget driver lays pulses end to end).
+S_PULSE_START_CMD = S_T_SURR + 1  # [-]
+S_PULSE_START = S_PULSE_START_CMD + 1  # latched start of the current period's pulse [s]
+N_STATE = S_PULSE_START + 1
 
 STATE_NAMES = {
     S_X: "position_m",

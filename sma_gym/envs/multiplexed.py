@@ -6,32 +6,39 @@ docstring of :class:`SMAMultiplexedEnv`.
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from sma_gym._validation import require_action, require_int_range, require_range
-from sma_gym.electrical.multiplexer import Multiplexer
+from sma_gym._validation import require_action, require_choice, require_int_range, require_range
+from sma_gym.electrical.multiplexer import SCHEMES, Multiplexer
 from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs import references as refs
 from sma_gym.envs.render import EpisodeRendering
-from sma_gym.envs.single import (
-    DEFAULT_CONTROL_PERIOD_S,
-    DEFAULT_ENERGY_WEIGHT,
-    DEFAULT_OVERHEAT_C,
-    DEFAULT_REFERENCE,
-    TRACKING,
-    ReferenceSpec,
-    Settings,
-)
-from sma_gym.model import ModelSpec
+from sma_gym.envs.single import TRACKING, Settings, SMAEnv
 from sma_gym.simulator import Simulator
 
 DEFAULT_N_ACTUATORS = 4
 DEFAULT_CYCLING_FREQUENCY_HZ = 2000.0
 """The report's best compromise at 10 V (§9)."""
+DEFAULT_SCHEME = "fixed_slots"
+"""The report's scheme (§9.1): each actuator owns a 1/n slot of the cycle."""
+
+
+def _shared_settings() -> dict[str, inspect.Parameter]:
+    """The single envs' keyword-only settings (``model``, ``reference``, ...), minus ``pwm_mode``.
+
+    One definition of their names and defaults: the multiplexed env takes them as ``**settings``
+    and shows them in its signature, so a setting added to the single envs reaches it too.
+    """
+    params = inspect.signature(SMAEnv.__init__).parameters.values()
+    return {p.name: p for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY and p.name != "pwm_mode"}
+
+
+_SETTINGS = _shared_settings()
 
 
 class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
@@ -39,15 +46,24 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         "n SMA actuators sharing one PWM (``SMAMultiplexed-v0``).",
         Description="""
             n actuators on one PWM swept at a cycling frequency (report §9), each tracking
-            its own reference. The multiplexer visits the actuators in turn once per cycle,
-            so actuator j may conduct only in its slot and gets at most 1/n duty; the
-            physics is PWM-resolved (each pulse in its slot, sensors read at the end of each
-            cycle). Besides the Gymnasium API: `reference_description()`, `multiplexer`,
-            `position_scale_m`, `resistance_scale_ohm`, `duty_range`, `control_period_s`,
-            `duty_for()`, `action_for()`.
+            its own reference, in one of two schemes (`scheme`). `"fixed_slots"` (the
+            report's): the multiplexer visits the actuators in turn once per cycle, so
+            actuator j may conduct only in its slot [j/n, (j+1)/n) and gets at most 1/n
+            duty. `"shared_budget"`: the driver still conducts through one actuator at a
+            time, but only the sum of the duties in a cycle is limited (to 1). The action
+            gives each actuator a share of the cycle in [0, 1]; **if the shares sum to more
+            than 1, each is multiplied by 1 / sum** (proportional scaling), and the pulses
+            are laid end to end from the cycle's start in actuator order (pulse j starts
+            where pulse j - 1 ends). The physics is PWM-resolved (each pulse where the
+            driver puts it, sensors read at the end of each actuator's period), so the
+            simulation sees the real pulse train. Besides the Gymnasium API:
+            `reference_description()`, `multiplexer`, `scheme`, `position_scale_m`,
+            `resistance_scale_ohm`, `duty_range`, `control_period_s`, `duty_for()`,
+            `action_for()`, `pulse_layout()`.
             """,
         Action_Space=docs.join(
-            "`Box(-1, 1, (n,), float32)`: entry j is actuator j's action; duty range [0, 1/n].",
+            "`Box(-1, 1, (n,), float32)`: entry j is actuator j's action; duty range [0, 1/n] on "
+            "fixed slots, [0, 1] (the share asked, scaled down if the shares sum past 1) on a shared budget.",
             docs.ACTION,
         ),
         Observation_Space=docs.join(
@@ -74,12 +90,16 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
             - `n_actuators`: 1 to 16 (default 4).
             - `cycling_frequency_hz`: 100 to 4000 Hz (default 2000: the report's best
               compromise at 10 V).
+            - `scheme`: `"fixed_slots"` (default, the report's) or `"shared_budget"`.
             """,
             docs.ARGUMENTS,
             "- No `pwm_mode`: the physics is always PWM-resolved.",
         ),
         Version_History=docs.join(
             """
+            * 0.3: `scheme` added (`"shared_budget"`: one duty budget for the bank, shares
+              scaled by 1 / sum when they sum past 1, pulses laid end to end); the default
+              `"fixed_slots"` gives bit for bit the results of 0.2.
             * 0.2: the reset `info["references"]` list of dicts is gone (use
               `reference_description()`); `reference_kind` added; unknown kwargs raise
               `ValueError`; `env.spec.id` carries the `sma_gym:` prefix; `render()` no
@@ -98,22 +118,19 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         cycling_frequency_hz: float = DEFAULT_CYCLING_FREQUENCY_HZ,
         render_mode: str | None = None,
         *,
-        model: ModelSpec = None,
-        control_period_s: float = DEFAULT_CONTROL_PERIOD_S,
-        reference: ReferenceSpec = DEFAULT_REFERENCE,
-        energy_weight: float = DEFAULT_ENERGY_WEIGHT,
-        overheat_limit_c: float = DEFAULT_OVERHEAT_C,
-        position_noise_std_m: float | None = None,
-        resistance_noise_std_ohm: float | None = None,
-        **unknown: Any,
+        scheme: str = DEFAULT_SCHEME,
+        **settings: Any,
     ):
-        arguments = dict(locals())
         self.n = require_int_range("n_actuators", n_actuators, 1, 16)
         f = require_range("cycling_frequency_hz", cycling_frequency_hz, 100.0, 4000.0, "Hz")
-        # PWM-resolved always: each actuator conducts only in its slot of the cycle.
+        self.scheme = require_choice("scheme", scheme, SCHEMES)
+        known = {name: settings.pop(name, p.default) for name, p in _SETTINGS.items()}
+        arguments = {"n_actuators": n_actuators, "cycling_frequency_hz": f, "render_mode": render_mode}
+        arguments.update(scheme=scheme, **known, unknown=settings)
+        # PWM-resolved always: each actuator conducts only where the driver puts its pulse.
         self.settings = Settings.from_arguments(TRACKING, arguments, pwm_mode="resolved")
         self._init_rendering(render_mode, self.settings.control_period_s)
-        self.multiplexer = Multiplexer(self.n, f)
+        self.multiplexer = Multiplexer(self.n, f, self.scheme)
         self.sim = Simulator(
             self.settings.model,
             n=self.n,
@@ -127,7 +144,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         self.observation_space = spaces.Box(np.tile(low, self.n), np.tile(high, self.n), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(self.n,), dtype=np.float32)
         self.feature_names = task.FEATURES[task.OBS_POSITION]
-        self.duty_range = task.DutyRange(0.0, 1.0 / self.n)
+        self.duty_range = task.DutyRange(0.0, self.multiplexer.duty_max)
         self.control_period_s = self.settings.control_period_s
         self.position_scale_m = float(self.sim.usable_stroke_m[0])
         self.resistance_scale_ohm = float(self.sim.cold_resistance_ohm[0])
@@ -146,6 +163,15 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
     def action_for(self, duties: np.ndarray) -> np.ndarray:
         """Inverse of :meth:`duty_for` (for controllers that compute duties)."""
         return self.duty_range.action_for(duties)
+
+    def pulse_layout(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(duty, pulse start) of each actuator for ``actions``, fractions of the cycle.
+
+        Fixed slots: the duty, each pulse at the start of its slot. Shared budget: the shares
+        scaled by 1 / sum if they sum past 1, laid end to end
+        (:meth:`~sma_gym.electrical.multiplexer.Multiplexer.layout`).
+        """
+        return self.multiplexer.layout(self.duty_for(actions))
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -179,6 +205,9 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
     def step(self, action):
         a = require_action(action, self.n)
         duty = self.duty_for(a)
+        if self.scheme == "shared_budget":
+            duty, start = self.multiplexer.layout(duty)
+            self.sim.set_pulse_start(start)
         self._duty[0] = duty
         self.sim.step_unchecked(self._duty)
         self.task.last_duty[:] = duty
@@ -197,3 +226,12 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
 
     def _render_labels(self) -> list[str] | None:
         return [str(j) for j in range(self.n)]
+
+
+def _signature() -> inspect.Signature:
+    """The constructor's signature with the shared settings spelled out (for help() and IDEs)."""
+    own = list(inspect.signature(SMAMultiplexedEnv.__init__).parameters.values())[:-1]
+    return inspect.Signature([*own, *_SETTINGS.values()])
+
+
+SMAMultiplexedEnv.__init__.__signature__ = _signature()  # type: ignore[attr-defined]
