@@ -4,7 +4,7 @@ Every model ``<name>.zip`` that training writes has a card ``<name>.json`` besid
 (:data:`CARD_SUFFIX`, the only spelling): the env id and make kwargs, the history
 features, the residual base controller, the frame stack, and the SHA-256 of the zip. A
 card is written by :meth:`PolicyCard.save` (``train.py``) and read by
-:meth:`PolicyCard.load` (:func:`agents.trained.load_policy`, ``sma-gym evaluate
+:meth:`PolicyCard.load` (:func:`sma_gym_agents.trained.load_policy`, ``sma-gym evaluate
 --policy``); both go through the same frozen dataclass and the same checks, so a field
 cannot be written in one spelling and read in another.
 
@@ -41,7 +41,7 @@ CARD_ENV_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0")
 of any other id would be silently left out of every table)."""
 
 HISTORIES = ("none", "ema")
-"""History features an agent may see (:mod:`agents.history`)."""
+"""History features an agent may see (:mod:`sma_gym_agents.history`)."""
 
 
 def card_path(model_path: str | Path) -> Path:
@@ -96,9 +96,9 @@ class PolicyCard:
     frame_stack: int = 1
     """Stacked observations (stable-baselines3's ``VecFrameStack``) the model expects."""
     history: str = "none"
-    """``"ema"``: :class:`agents.history.HistoryFeatures` appended to the observation."""
+    """``"ema"``: :class:`sma_gym_agents.history.HistoryFeatures` appended to the observation."""
     residual: str | None = None
-    """Controller label the model corrects (:mod:`agents.residual`), or None."""
+    """Controller label the model corrects (:mod:`sma_gym_agents.residual`), or None."""
     residual_scale: float = 0.5
     """Largest correction of the residual, as a fraction of full duty."""
     seed: int | None = None

@@ -1,7 +1,7 @@
 """``sma-gym fidelity`` and ``sma-gym evaluate``: the subcommands that run the report's controllers.
 
 They are declared in ``pyproject.toml`` under the ``sma_gym.commands`` entry-point group,
-where :mod:`sma_gym.cli` finds them; ``sma_gym`` itself never imports ``agents``.
+where :mod:`sma_gym.cli` finds them; ``sma_gym`` itself never imports ``sma_gym_agents``.
 """
 
 from __future__ import annotations
@@ -10,11 +10,17 @@ import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
-from agents import evaluation, report_targets
-from agents.report import table_6_1_markdown, write_report
-from agents.trained import load_policy
 from sma_gym._io import check_output_folder, locked_folder
 from sma_gym.cli import Command
+from sma_gym.extras import extra_error
+
+try:
+    from sma_gym_agents import evaluation, report_targets
+    from sma_gym_agents.report import table_6_1_markdown, write_report
+    from sma_gym_agents.trained import load_policy
+except ModuleNotFoundError as err:
+    # Listed by `sma-gym --help` as unavailable, naming the extra that makes both work.
+    raise extra_error(err, "sma-gym evaluate and fidelity", "train") from err
 
 
 # --------------------------------------------------------------------------------------
@@ -43,6 +49,8 @@ FIDELITY = Command(
     "compare the simulator with every result of the report (125 rows of REPORT_TARGETS, Table 6.1 and chapters 7-9 included)",
     _fidelity_arguments,
     _fidelity,
+    needs=("scipy", "matplotlib"),
+    extra="train",
 )
 
 
@@ -121,4 +129,6 @@ EVALUATE = Command(
     "score the report's controllers (and trained agents) on the report's experiments",
     _evaluate_arguments,
     _evaluate,
+    needs=("scipy", "matplotlib", "stable_baselines3"),
+    extra="train",
 )

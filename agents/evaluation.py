@@ -1,6 +1,6 @@
 """The evaluation harness: any policy through the report's experiments, scored its way.
 
-``sma-gym evaluate --out DIR [--policy PATH ...] [--json]`` (:mod:`agents.commands`) or
+``sma-gym evaluate --out DIR [--policy PATH ...] [--json]`` (:mod:`sma_gym_agents.commands`) or
 :func:`evaluate` runs:
 
 * **Table 6.1** (§6): the ten controller configurations under standard conditions on the
@@ -39,9 +39,9 @@ from typing import Any
 
 import numpy as np
 
-from agents.controllers import ALL_SPECS, PID, VSC3, VSC4, ControllerSpec, spec_by_label, with_feedforward
-from agents.policies import ControllerPolicy, SelfSensingPolicy
-from agents.trained import AgentPolicy
+from sma_gym_agents.controllers import ALL_SPECS, PID, VSC3, VSC4, ControllerSpec, spec_by_label, with_feedforward
+from sma_gym_agents.policies import ControllerPolicy, SelfSensingPolicy
+from sma_gym_agents.trained import AgentPolicy
 
 STEP_SECONDS = 6.0
 STEP_TIME_S = 0.5

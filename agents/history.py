@@ -9,8 +9,8 @@ the default control period). :class:`HistoryFeatures` appends exponential moving
 of the ``last_duty`` feature at 0.3, 1 and 3 s, of the measured position (or resistance,
 without a position sensor) at 1 s, and the change of that signal since the last step.
 
-The same class serves training (:class:`agents.training.envs.HistoryVecEnv`, a
-stable-baselines3 VecEnv wrapper) and evaluation (:class:`agents.trained.AgentPolicy` keeps
+The same class serves training (:class:`sma_gym_agents.training.envs.HistoryVecEnv`, a
+stable-baselines3 VecEnv wrapper) and evaluation (:class:`sma_gym_agents.trained.AgentPolicy` keeps
 one internally), so the agent sees identical features in both.
 """
 

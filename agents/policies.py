@@ -2,12 +2,12 @@
 
 >>> import gymnasium as gym
 >>> from stable_baselines3.common.evaluation import evaluate_policy
->>> from agents import ControllerPolicy
+>>> from sma_gym_agents import ControllerPolicy
 >>> env = gym.make("sma_gym:SMATracking-v0", control_period_s=1e-3, max_episode_steps=6000)
 >>> policy = ControllerPolicy("VSC3 + FF", env)
 >>> mean_reward, _ = evaluate_policy(policy, env, n_eval_episodes=1)   # doctest: +SKIP
 
-A :class:`ControllerPolicy` runs one of the report's controllers (:mod:`agents.controllers`)
+A :class:`ControllerPolicy` runs one of the report's controllers (:mod:`sma_gym_agents.controllers`)
 on what a real controller reads: the measured position, the reference and its rate (from
 the observation, scaled back to metres with the env's ``position_scale_m``) and its own time
 step (the env's ``control_period_s``; the report's loop runs at 1 kHz). It never reads the
@@ -18,7 +18,7 @@ n actuators) are handled at once; integrators and filters restart where
 :class:`SelfSensingPolicy` is the same controller fed by a position estimated from the
 resistance, with a calibration fitted to a heating sweep (§4.2).
 
-Trained models (written by ``train.py``) are opened by :func:`agents.trained.load_policy`.
+Trained models (written by ``train.py``) are opened by :func:`sma_gym_agents.trained.load_policy`.
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.controllers import Controller, ControllerSpec, spec_by_label
 from sma_gym.envs.task import DutyRange
+from sma_gym_agents.controllers import Controller, ControllerSpec, spec_by_label
 
 
 def env_attr(env: Any, name: str, per_env: bool = False) -> Any:

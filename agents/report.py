@@ -6,11 +6,11 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from agents.controllers import ALL_SPECS
-from agents.evaluation import CHAPTER_8_CASES, TABLE_6_1, Results
 from sma_gym._io import write_text
 from sma_gym.electrical.multiplexer import io_counts
 from sma_gym.plotting import new_figure, save
+from sma_gym_agents.controllers import ALL_SPECS
+from sma_gym_agents.evaluation import CHAPTER_8_CASES, TABLE_6_1, Results
 
 
 def _mm(value: float, signed: bool = True) -> str:

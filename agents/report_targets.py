@@ -2,7 +2,7 @@
 
 ``sma-gym fidelity [--out DIR] [--json] [--quick]`` (or :func:`run`) runs the plant
 experiments of :mod:`sma_gym.fidelity` and the evaluation harness
-(:mod:`agents.evaluation`) with the report's controllers, and answers each of the 125
+(:mod:`sma_gym_agents.evaluation`) with the report's controllers, and answers each of the 125
 targets of :mod:`sma_gym.report_targets` with one row:
 
 * Table 6.1 (B1-B40) and the chapter-6 statements (Q1-Q10): the ten controllers on the
@@ -19,7 +19,7 @@ words the report uses for its qualitative statements are read with the fixed mea
 Runtime on 2 shared cores: full about 3 minutes (three sensor-noise seeds), ``quick``
 about 1-1.5 minutes (one seed, two sine periods instead of three, a shorter chapter-9
 sweep). The report's controllers run side by side in one vector env
-(:func:`agents.evaluation.rollouts`: the same traces as one at a time).
+(:func:`sma_gym_agents.evaluation.rollouts`: the same traces as one at a time).
 """
 
 from __future__ import annotations
@@ -30,8 +30,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agents.controllers import PID
-from agents.evaluation import (
+from sma_gym import fidelity
+from sma_gym.fidelity import (
+    NO_OVERSHOOT_MM,
+    SIGNIFICANT_CHANGE,
+    VISIBLE_ERROR_MM,
+    FidelityResult,
+    Row,
+    fmt,
+    make_row,
+    numeric_row,
+    ratio,
+)
+from sma_gym.report_targets import target, within_factor, within_tolerance
+from sma_gym_agents.controllers import PID
+from sma_gym_agents.evaluation import (
     CHAPTER_7_CONDITIONS,
     CHAPTER_7_SPECS,
     CHAPTER_8_CASES,
@@ -50,19 +63,6 @@ from agents.evaluation import (
     run_chapter_9,
     run_table_6_1,
 )
-from sma_gym import fidelity
-from sma_gym.fidelity import (
-    NO_OVERSHOOT_MM,
-    SIGNIFICANT_CHANGE,
-    VISIBLE_ERROR_MM,
-    FidelityResult,
-    Row,
-    fmt,
-    make_row,
-    numeric_row,
-    ratio,
-)
-from sma_gym.report_targets import target, within_factor, within_tolerance
 
 
 @dataclass(frozen=True)
@@ -186,7 +186,7 @@ def _sse_text(value_mm: float) -> str:
 # --------------------------------------------------------------------------------------
 # Table 6.1 (B1-B40) and the chapter-6 statements (Q1-Q10)
 # --------------------------------------------------------------------------------------
-TABLE_6_1_HOW = "Table 6.1 protocol of agents.evaluation (8 mm step at 0.5 s; 0.1 Hz 1 -> 7 mm sine, last two periods), mean over seeds"
+TABLE_6_1_HOW = "Table 6.1 protocol of sma_gym_agents.evaluation (8 mm step at 0.5 s; 0.1 Hz 1 -> 7 mm sine, last two periods), mean over seeds"
 
 
 def table_6_1_rows(m: Metrics) -> list[Row]:
@@ -599,7 +599,7 @@ def chapter_7_rows(m: Metrics) -> list[Row]:
 # --------------------------------------------------------------------------------------
 # Chapter 8 (8a-8j, 8l)
 # --------------------------------------------------------------------------------------
-CH8_HOW = "the PID on agents.evaluation's chapter-8 protocol (hold 1 mm, step or ramp to 7 mm; integral F dx / integral P dt until 6.9 mm), noise-free"
+CH8_HOW = "the PID on sma_gym_agents.evaluation's chapter-8 protocol (hold 1 mm, step or ramp to 7 mm; integral F dx / integral P dt until 6.9 mm), noise-free"
 EXPECTED_EFFICIENCY_PERCENT = 4.0  # §8: "in practice an efficiency of about 4 % is expected"
 
 

@@ -12,8 +12,8 @@ what the baseline cannot do (for instance: use the reference preview to heat bef
 and to start cooling before a reversal, which the hysteresis makes slow).
 
 :class:`ResidualStep` holds the base controller for a batch and is used both by the
-training wrapper (:class:`agents.training.envs.ResidualVecEnv`) and by
-:class:`agents.trained.AgentPolicy` at evaluation, so both compose actions identically.
+training wrapper (:class:`sma_gym_agents.training.envs.ResidualVecEnv`) and by
+:class:`sma_gym_agents.trained.AgentPolicy` at evaluation, so both compose actions identically.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from agents.policies import ControllerPolicy, SelfSensingPolicy, env_attr
+from sma_gym_agents.policies import ControllerPolicy, SelfSensingPolicy, env_attr
 
 
 class ResidualStep:

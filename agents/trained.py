@@ -1,6 +1,6 @@
 """Trained agents: a stable-baselines3 model run on raw env observations as it trained.
 
-:func:`save_policy` writes a model zip and its card (:class:`agents.card.PolicyCard`);
+:func:`save_policy` writes a model zip and its card (:class:`sma_gym_agents.card.PolicyCard`);
 :func:`load_policy` reads both back into an :class:`AgentPolicy`, which rebuilds what the
 model saw in training (residual base controller, history features) from the raw
 observations the evaluation harness gives it.
@@ -17,10 +17,10 @@ import gymnasium as gym
 import numpy as np
 
 import sma_gym  # noqa: F401  (registers the ids)
-from agents.card import PolicyCard
-from agents.history import HistoryFeatures
-from agents.residual import ResidualStep
 from sma_gym._io import atomic_path
+from sma_gym_agents.card import PolicyCard
+from sma_gym_agents.history import HistoryFeatures
+from sma_gym_agents.residual import ResidualStep
 
 
 @dataclass
@@ -37,11 +37,11 @@ class AgentPolicy:
     env_kwargs: dict
     frame_stack: int = 1
     history: str = "none"
-    """``"ema"``: the model expects :class:`agents.history.HistoryFeatures` appended; the
+    """``"ema"``: the model expects :class:`sma_gym_agents.history.HistoryFeatures` appended; the
     policy computes them from the observations it is given, as training did."""
     residual: str | None = None
     """A controller label (e.g. ``"VSC3 + FF"``): the model is a residual on top of it
-    (:mod:`agents.residual`); the policy runs that controller, as training did."""
+    (:mod:`sma_gym_agents.residual`); the policy runs that controller, as training did."""
     residual_scale: float = 0.5
 
     def __post_init__(self) -> None:

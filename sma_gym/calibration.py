@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from sma_gym import fidelity
+from sma_gym.extras import require
 from sma_gym.model import ModelConfig
 from sma_gym.params import FORCED_CONVECTION_FACTOR, preset, standard
 
@@ -125,6 +126,8 @@ def calibrate_bench(fit_file: str = "step01.csv", check_file: str = "ramp01.csv"
     the fit and the RMS error on both files (``check_file`` is never used in the fit).
     """
     import numpy as np
+
+    require("scipy", purpose="python -m sma_gym.calibration", extra="diagnose")
     from scipy.optimize import least_squares
 
     from sma_gym.data import find_real_data_dir, load_trace

@@ -21,6 +21,8 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
+from sma_gym.extras import MissingExtraError, extra_error, require
+
 COMMANDS_GROUP = "sma_gym.commands"
 """Entry-point group of the subcommands other packages add (each names a :class:`Command`)."""
 
@@ -31,6 +33,9 @@ class Command:
 
     ``add_arguments`` declares its options on its parser; ``run`` does the work and returns
     the exit code, raising ``ValueError`` for a bad argument (printed, exit code 2).
+    ``needs`` are the top-level modules it imports beyond the lean install, and ``extra``
+    the extra that installs them (:mod:`sma_gym.extras`): a missing one is reported before
+    ``run`` starts.
     """
 
     name: str
@@ -38,6 +43,9 @@ class Command:
     add_arguments: Callable[[argparse.ArgumentParser], None]
     run: Callable[[argparse.Namespace], int]
     description: str | None = None
+    needs: tuple[str, ...] = ()
+    extra: str | None = None
+    available: bool = True
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -207,6 +215,8 @@ BUILTIN_COMMANDS = (
         _diagnose_arguments,
         _diagnose,
         description="sma-gym diagnose FIT.csv [FIT2.csv ...] [--heldout HELD.csv ...] --out DIR",
+        needs=("scipy", "matplotlib"),
+        extra="diagnose",
     ),
     Command(
         "synth",
@@ -218,12 +228,18 @@ BUILTIN_COMMANDS = (
 
 
 def _unavailable(name: str, source: str, error: Exception) -> Command:
-    """A command whose entry point does not load: listed, and its use names the reason."""
+    """A command whose entry point does not load: listed, and its use (with any arguments)
+    names the reason, and the extra to install when a module is missing."""
+    if isinstance(error, ModuleNotFoundError) and not isinstance(error, MissingExtraError):
+        error = extra_error(error, f"sma-gym {name}")
+    reason = error.hint if isinstance(error, MissingExtraError) else f"{source} does not load"
 
     def run(args: argparse.Namespace) -> int:
+        if isinstance(error, MissingExtraError):
+            raise error
         raise ValueError(f"this command ({source}) could not be loaded: {type(error).__name__}: {error}")
 
-    return Command(name, f"(unavailable: {source} does not load)", lambda p: None, run)
+    return Command(name, f"(unavailable: {reason})", lambda p: None, run, available=False)
 
 
 def plugin_commands() -> list[Command]:
@@ -265,10 +281,20 @@ def build_parser(commands: Sequence[Command] | None = None) -> argparse.Argument
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    commands = all_commands()
+    parser = build_parser(commands)
+    # An unavailable command takes any arguments: its message (which extra to install) is
+    # more use than "unrecognized arguments".
+    args, unknown = parser.parse_known_args(argv)
+    command = next(c for c in commands if c.name == args.command)
+    if unknown and command.available:
+        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     try:
+        require(*command.needs, purpose=f"sma-gym {command.name}", extra=command.extra)
         return int(args.func(args) or 0)
+    except MissingExtraError as err:
+        print(f"sma-gym {args.command}: error: {err}", file=sys.stderr)
+        return 2
     except ValueError as err:
         print(f"sma-gym {args.command}: error: {err}", file=sys.stderr)
         return 2

@@ -4,13 +4,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 
 from sma_gym._io import atomic_path
+from sma_gym.extras import extra_error
+
+try:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+except ModuleNotFoundError as err:
+    raise extra_error(err, "sma-gym's report plots", "plots") from err
 
 
 def new_figure(rows: int, cols: int, size: tuple[float, float] = (10, 6)):

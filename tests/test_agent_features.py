@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 import sma_gym  # noqa: F401
-from agents.history import DUTY_TIME_CONSTANTS_S, HistoryFeatures
-from agents.policies import ControllerPolicy
-from agents.residual import ResidualStep
-from agents.trained import AgentPolicy
-from agents.training.envs import make_vec_env
+from sma_gym_agents.history import DUTY_TIME_CONSTANTS_S, HistoryFeatures
+from sma_gym_agents.policies import ControllerPolicy
+from sma_gym_agents.residual import ResidualStep
+from sma_gym_agents.trained import AgentPolicy
+from sma_gym_agents.training.envs import make_vec_env
 
 KWARGS = {"control_period_s": 0.01}
 
@@ -105,7 +105,7 @@ def test_evaluation_policy_sees_exactly_what_training_saw(history, residual):
 
 
 def _residual_wrapper(venv):
-    from agents.training.envs import ResidualVecEnv
+    from sma_gym_agents.training.envs import ResidualVecEnv
 
     while not isinstance(venv, ResidualVecEnv):
         venv = venv.venv
@@ -115,7 +115,7 @@ def _residual_wrapper(venv):
 def test_the_evaluation_records_only_info_keys_the_envs_define():
     """The harness picks a few ``info`` keys to record; they must be names of the envs' one
     ``INFO`` definition (a renamed key would otherwise fail only at evaluation time)."""
-    from agents.evaluation import _RECORD
     from sma_gym.envs.task import INFO
+    from sma_gym_agents.evaluation import _RECORD
 
     assert set(_RECORD) <= set(INFO), sorted(set(_RECORD) - set(INFO))

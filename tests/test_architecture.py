@@ -1,6 +1,8 @@
-"""The import graph: ``sma_gym`` never imports ``agents``, and no two modules import each other.
+"""The import graph: ``sma_gym`` never imports ``sma_gym_agents``, and no two modules import each other.
 
-Every module of ``sma_gym`` and ``agents`` (and ``train.py``) is parsed with :mod:`ast`;
+The repository's ``agents/`` folder is installed as the package ``sma_gym_agents``
+(``pyproject.toml``: a top-level ``agents`` collides with other distributions). Every module of
+``sma_gym`` and ``sma_gym_agents`` (and ``train.py``) is parsed with :mod:`ast`;
 every ``import`` statement counts, at module level or inside a function (an import hidden
 in a function still makes the dependency, it only delays it). Imports under
 ``if TYPE_CHECKING:`` count too: a type is a dependency of the code that names it.
@@ -12,10 +14,13 @@ whose ``__init__`` merely re-exports).
 from __future__ import annotations
 
 import ast
+import subprocess
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("sma_gym", "agents")
+FOLDERS = {"sma_gym": "sma_gym", "agents": "sma_gym_agents"}
+"""Repository folder -> the name its package is installed and imported under."""
+PACKAGES = tuple(FOLDERS.values())
 
 KNOWN_CYCLES: tuple[frozenset[str], ...] = ()
 """Cycles tolerated for now, each the exact set of modules of one strongly connected component
@@ -26,9 +31,9 @@ report module). The test fails while a listed cycle no longer exists, so this ca
 def _module_files() -> dict[str, Path]:
     """Dotted module name -> file, for every module of the project."""
     modules = {"train": ROOT / "train.py"}
-    for package in PACKAGES:
-        for path in sorted((ROOT / package).rglob("*.py")):
-            parts = path.relative_to(ROOT).with_suffix("").parts
+    for folder, package in FOLDERS.items():
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            parts = (package, *path.relative_to(ROOT / folder).with_suffix("").parts)
             if parts[-1] == "__init__":
                 parts = parts[:-1]
             modules[".".join(parts)] = path
@@ -121,10 +126,24 @@ def _path(graph: dict[str, set[str]], component: frozenset[str]) -> str:
 def test_the_graph_sees_function_level_and_relative_imports():
     """The parser itself: a hidden (function-level) import and a relative one are edges."""
     graph = import_graph()
-    assert "agents.evaluation" in graph["agents.report"]
-    assert graph["train"] == {"agents.training"}
+    assert "sma_gym_agents.evaluation" in graph["sma_gym_agents.report"]
+    assert graph["train"] == {"sma_gym_agents.training"}
     assert all(name.startswith(PACKAGES) or name == "train" for name in graph)
     assert len(graph) > 40
+
+
+def test_no_code_imports_the_folder_name_agents():
+    """Only ``sma_gym_agents`` is installed: ``import agents`` would work in a checkout (the
+    folder is on the path) and fail, or load another distribution's package, elsewhere."""
+    offenders = []
+    tracked = subprocess.run(["git", "ls-files", "*.py"], cwd=ROOT, capture_output=True, text=True, check=True)
+    for path in (ROOT / name for name in tracked.stdout.split()):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            if isinstance(node, ast.ImportFrom) and not node.level:
+                names = [node.module or ""]
+            offenders += [f"{path.relative_to(ROOT)}: {n}" for n in names if n.split(".")[0] == "agents"]
+    assert not offenders, "import sma_gym_agents, not agents:\n" + "\n".join(offenders)
 
 
 def test_sma_gym_imports_nothing_from_agents():
@@ -132,9 +151,9 @@ def test_sma_gym_imports_nothing_from_agents():
     offenders = sorted(
         f"{module} imports {target}"
         for module, targets in graph.items()
-        if module.startswith("sma_gym")
+        if module.split(".")[0] == "sma_gym"
         for target in targets
-        if target.split(".")[0] == "agents"
+        if target.split(".")[0] == "sma_gym_agents"
     )
     assert not offenders, "sma_gym must not depend on agents (agents -> sma_gym only):\n" + "\n".join(offenders)
 
@@ -153,6 +172,6 @@ def test_sma_gym_command_finds_the_agents_subcommands_through_entry_points():
 
     plugins = {c.name: c for c in plugin_commands()}
     assert set(plugins) == {"fidelity", "evaluate"}, f"{COMMANDS_GROUP} entry points (reinstall: pip install -e .)"
-    assert all(isinstance(c, Command) and c.run.__module__ == "agents.commands" for c in plugins.values())
+    assert all(isinstance(c, Command) and c.run.__module__ == "sma_gym_agents.commands" for c in plugins.values())
     help_text = build_parser().format_help()
     assert all(name in help_text for name in ("bench", "diagnose", "evaluate", "fidelity", "synth"))

@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 from stable_baselines3.common.evaluation import evaluate_policy
 
-from agents import ALL_SPECS, ControllerPolicy, ResistanceCalibration
-from agents.controllers import PID, VSC3, VSC4, with_feedforward
-from agents.evaluation import (
+from sma_gym.cli import main
+from sma_gym_agents import ALL_SPECS, ControllerPolicy, ResistanceCalibration
+from sma_gym_agents.controllers import PID, VSC3, VSC4, with_feedforward
+from sma_gym_agents.evaluation import (
     Results,
     baseline,
     chapter_9_label,
@@ -23,7 +24,6 @@ from agents.evaluation import (
     run_chapter_9,
     run_table_6_1,
 )
-from sma_gym.cli import main
 
 
 @pytest.fixture(scope="module")
@@ -213,7 +213,7 @@ def test_cli_prints_every_metric_as_json_and_writes_the_report(tmp_path, capsys)
 def test_cli_evaluates_a_saved_agent_beside_the_baselines(tmp_path, capsys):
     from stable_baselines3 import PPO
 
-    from agents.trained import save_policy
+    from sma_gym_agents.trained import save_policy
 
     env = gym.make("sma_gym:SMATracking-v0")
     model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
@@ -248,7 +248,7 @@ def test_cli_rejects_unknown_experiments_and_policies(capsys):
 
 def _synthetic_results(condition: str, policies: list[str]) -> Results:
     """Records and traces as run_table_6_1 writes them, from made-up responses (no rollouts)."""
-    from agents.evaluation import SINE_SECONDS, STEP_SECONDS, Trace, _records, sine_metrics, step_metrics
+    from sma_gym_agents.evaluation import SINE_SECONDS, STEP_SECONDS, Trace, _records, sine_metrics, step_metrics
 
     results = Results()
     for k, name in enumerate(policies):
@@ -270,7 +270,7 @@ def _synthetic_results(condition: str, policies: list[str]) -> Results:
 
 
 def test_report_of_a_self_sensing_evaluation_plots_the_agent_and_writes_no_empty_figures(tmp_path):
-    from agents.report import plot_groups, write_report
+    from sma_gym_agents.report import plot_groups, write_report
 
     policies = ["PID", "VSC3 + FF", "PID (self-sensing)", "VSC3 + FF (self-sensing)", "SAC agent"]
     groups = plot_groups(policies)
@@ -291,7 +291,7 @@ def test_report_of_a_self_sensing_evaluation_plots_the_agent_and_writes_no_empty
 
 
 def test_report_of_a_standard_evaluation_has_the_reports_figures(tmp_path):
-    from agents.report import write_report
+    from sma_gym_agents.report import write_report
 
     paths = write_report(_synthetic_results("standard", ["PID", "VSC3 + FF", "PPO agent"]), tmp_path)
     assert {p.name for p in paths} >= {

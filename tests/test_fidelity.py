@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents import report_targets as table
-from agents.evaluation import CHAPTER_8_CASES, Record, Results
 from sma_gym import fidelity
 from sma_gym.cli import main
 from sma_gym.report_targets import TOLERANCES, load_targets, parse_report_targets, target, within_tolerance
+from sma_gym_agents import report_targets as table
+from sma_gym_agents.evaluation import CHAPTER_8_CASES, Record, Results
 
 MIN_PASS_COUNT = 70
 """Rows with status ``pass`` in the quick run of the current model (raise it, never lower it)."""

@@ -111,7 +111,7 @@ def test_train_refuses_a_non_empty_out_unless_overwrite_and_says_so_in_help(tmp_
 
 
 def test_prepare_out_deletes_a_previous_runs_outputs_only(tmp_path):
-    from agents.training import prepare_out
+    from sma_gym_agents.training import prepare_out
 
     (tmp_path / "best_model.zip").write_bytes(b"old")
     (tmp_path / "checkpoints").mkdir()
@@ -123,7 +123,7 @@ def test_prepare_out_deletes_a_previous_runs_outputs_only(tmp_path):
 def test_cards_carry_the_zip_hash_and_the_loader_refuses_any_mismatch(tmp_path):
     import json
 
-    from agents.trained import load_policy, save_policy
+    from sma_gym_agents.trained import load_policy, save_policy
 
     model = _tiny_model()
     path = save_policy(model, tmp_path / "agent.zip", CARD)
@@ -268,17 +268,17 @@ def _unwritable_out(tmp_path: Path) -> Path:
     ],
 )
 def test_commands_check_out_before_the_work(tmp_path, capsys, monkeypatch, command):
-    import agents.commands
-    import agents.report_targets
     import sma_gym.diagnosis.workflow
+    import sma_gym_agents.commands
+    import sma_gym_agents.report_targets
     from sma_gym.cli import main
 
     def no_work(*args, **kwargs):
         raise AssertionError("the work started before --out was checked")
 
     monkeypatch.setattr(sma_gym.diagnosis.workflow, "diagnose", no_work)
-    monkeypatch.setattr(agents.commands, "evaluate", no_work)
-    monkeypatch.setattr(agents.report_targets, "main", no_work)
+    monkeypatch.setattr(sma_gym_agents.commands, "evaluate", no_work)
+    monkeypatch.setattr(sma_gym_agents.report_targets, "main", no_work)
     csv = _synth(tmp_path, "s.csv") if "{csv}" in command else None
     argv = [str(csv) if a == "{csv}" else a for a in command] + ["--out", str(_unwritable_out(tmp_path))]
     assert main(argv) == 2
@@ -287,10 +287,12 @@ def test_commands_check_out_before_the_work(tmp_path, capsys, monkeypatch, comma
 
 
 def test_evaluate_checks_policies_and_experiments_before_the_work(tmp_path, capsys, monkeypatch):
-    import agents.commands
+    import sma_gym_agents.commands
     from sma_gym.cli import main
 
-    monkeypatch.setattr(agents.commands, "evaluate", lambda *a, **k: (_ for _ in ()).throw(AssertionError("work")))
+    monkeypatch.setattr(
+        sma_gym_agents.commands, "evaluate", lambda *a, **k: (_ for _ in ()).throw(AssertionError("work"))
+    )
     assert main(["evaluate", "--experiments", "6.1,warp"]) == 2
     assert "warp" in capsys.readouterr().err
     (tmp_path / "m.zip").write_bytes(b"PK")

@@ -17,7 +17,7 @@ import pytest
 import yaml
 
 import sma_gym  # noqa: F401  (registers the ids, as the zoo's --gym-packages sma_gym does)
-from agents.training.config import (
+from sma_gym_agents.training.config import (
     ALGOS,
     HISTORY_WRAPPER,
     NOT_FOR_TRAIN_PY,
@@ -155,8 +155,8 @@ def test_history_wrapper_built_by_the_zoo_equals_the_one_train_py_builds():
     """HistoryVecEnv(venv) (the zoo's call) reads the features train.py passes explicitly."""
     from stable_baselines3.common.env_util import make_vec_env
 
-    from agents.history import HistoryFeatures
-    from agents.training.envs import HistoryVecEnv, ResidualVecEnv
+    from sma_gym_agents.history import HistoryFeatures
+    from sma_gym_agents.training.envs import HistoryVecEnv, ResidualVecEnv
 
     kwargs = entry("sac", "SMATracking-v0")["env_kwargs"]
     outs = []

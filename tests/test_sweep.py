@@ -9,10 +9,10 @@ import sys
 import numpy as np
 import pytest
 
-from agents.training import sweep as sweep_module
-from agents.training.cli import main
-from agents.training.config import build_parser, parse_args
-from agents.training.sweep import bootstrap_ci, iqm, seed_argv, summarise_seeds
+from sma_gym_agents.training import sweep as sweep_module
+from sma_gym_agents.training.cli import main
+from sma_gym_agents.training.config import build_parser, parse_args
+from sma_gym_agents.training.sweep import bootstrap_ci, iqm, seed_argv, summarise_seeds
 
 
 def test_iqm_is_the_mean_of_the_middle_half():

@@ -1,5 +1,5 @@
 """train.py end to end on a tiny budget: models, table and plots written, model reloads;
-the run configuration (:mod:`agents.training`) and the card (:class:`agents.card.PolicyCard`)."""
+the run configuration (:mod:`sma_gym_agents.training`) and the card (:class:`sma_gym_agents.card.PolicyCard`)."""
 
 import json
 import subprocess
@@ -10,8 +10,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.card import CARD_SUFFIX, PolicyCard, card_path
-from agents.training import RunConfig, parse_args
+from sma_gym_agents.card import CARD_SUFFIX, PolicyCard, card_path
+from sma_gym_agents.training import RunConfig, parse_args
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -41,7 +41,7 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
     # features, residual base) and load_policy rebuilds that to act on the raw env.
     from stable_baselines3 import SAC
 
-    from agents.trained import load_policy
+    from sma_gym_agents.trained import load_policy
 
     model = SAC.load(out / "best_model.zip", device="cpu")
     card = json.loads((out / "best_model.json").read_text())
@@ -114,7 +114,7 @@ def test_train_rejects_bad_options():
 
 def test_progress_lines_report_steps_rate_and_time_left():
     """Without a terminal (CI, nohup, cluster logs) train.py prints these instead of a bar."""
-    from agents.training.learn import progress_line
+    from sma_gym_agents.training.learn import progress_line
 
     line = progress_line(50_000, 400_000, 100.0)
     assert line == "train.py: 50000/400000 steps (12 %), 500 steps/s, about 11.7 min left"
@@ -123,7 +123,7 @@ def test_progress_lines_report_steps_rate_and_time_left():
 
 def test_train_py_is_a_thin_shell_over_agents_training():
     text = (ROOT / "train.py").read_text()
-    assert "from agents.training import main" in text and len(text.splitlines()) <= 15
+    assert "from sma_gym_agents.training import main" in text and len(text.splitlines()) <= 15
 
 
 def test_train_settings_come_from_the_hyperparameter_file_and_options_override():

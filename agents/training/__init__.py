@@ -7,16 +7,16 @@
 
 ``train.py`` (at the top of the repository) is a shell over this package:
 
-* :mod:`agents.training.config`: :class:`RunConfig`, the frozen run configuration, from
+* :mod:`sma_gym_agents.training.config`: :class:`RunConfig`, the frozen run configuration, from
   ``hyperparams/<algo>.yml`` (RL Zoo's format, which the zoo reads too) overridden by the
   command line, every value checked before anything is created;
-* :mod:`agents.training.envs`: what the agent sees and does (residual base controller,
+* :mod:`sma_gym_agents.training.envs`: what the agent sees and does (residual base controller,
   history features, frame stack) in training and on the validation references;
-* :mod:`agents.training.learn`: the stable-baselines3 loop, checkpoints, best model, progress;
-* :mod:`agents.training.compare`: the agent beside the report's controllers, and the goals;
-* :mod:`agents.training.run`: one run into its folder (train, compare, write the results);
-* :mod:`agents.training.cli`: ``main(argv)``, what ``train.py`` runs.
-* :mod:`agents.training.sweep`: ``train.py --seeds N``, the same configuration over seeds in
+* :mod:`sma_gym_agents.training.learn`: the stable-baselines3 loop, checkpoints, best model, progress;
+* :mod:`sma_gym_agents.training.compare`: the agent beside the report's controllers, and the goals;
+* :mod:`sma_gym_agents.training.run`: one run into its folder (train, compare, write the results);
+* :mod:`sma_gym_agents.training.cli`: ``main(argv)``, what ``train.py`` runs.
+* :mod:`sma_gym_agents.training.sweep`: ``train.py --seeds N``, the same configuration over seeds in
   parallel processes, every goal as an interquartile mean with a bootstrap interval.
 
 By default the agent is a residual on the report's controller (``agents/residual.py``: it
@@ -27,15 +27,15 @@ choices. The run folder (named at the end) gets:
 
 * ``best_model.zip`` (best on held-out validation references, by a periodic evaluation),
   ``final_model.zip`` and ``checkpoints/``: ordinary stable-baselines3 zips that
-  ``SAC.load`` / ``PPO.load`` open, each with a ``.json`` card (:class:`agents.card.PolicyCard`:
+  ``SAC.load`` / ``PPO.load`` open, each with a ``.json`` card (:class:`sma_gym_agents.card.PolicyCard`:
   env id and kwargs, history, residual base, frame stack; for the best model the step and
   validation return it was chosen at) that ``sma-gym evaluate --policy`` and
-  :func:`agents.trained.load_policy` read;
+  :func:`sma_gym_agents.trained.load_policy` read;
 * ``results.md``: the agent beside the report's controllers (all ten of Table 6.1 on the
   tracking env; PID and VSC3 + FF with and without a sensor on the self-sensing env; PID,
   VSC3, VSC3 + FF, PID + FF over the chapter-7 conditions on the robustness env) on
   references it never trained on (the report's 8 mm step and 0.1 Hz sine), goals checked
-  (:data:`agents.training.compare.GOALS`); ``evaluation/``: the harness's tables and plots;
+  (:data:`sma_gym_agents.training.compare.GOALS`); ``evaluation/``: the harness's tables and plots;
 * ``tb/``: TensorBoard logs (``tensorboard --logdir <folder>/tb``).
 
 A run never mixes its files with another run's: a non-empty ``--out`` is refused unless
@@ -48,7 +48,7 @@ distribution with seeds the training never uses; the final comparison uses the r
 references, which the training distribution never produces exactly.
 """
 
-from agents.training.cli import main
-from agents.training.config import RunConfig, parse_args, prepare_out
+from sma_gym_agents.training.cli import main
+from sma_gym_agents.training.config import RunConfig, parse_args, prepare_out
 
 __all__ = ["RunConfig", "main", "parse_args", "prepare_out"]

@@ -1,7 +1,7 @@
-"""``python -m agents.training``: the same as ``python train.py``."""
+"""``python -m sma_gym_agents.training``: the same as ``python train.py``."""
 
 import sys
 
-from agents.training.cli import main
+from sma_gym_agents.training.cli import main
 
 sys.exit(main())

@@ -6,7 +6,11 @@ import datetime
 import sys
 from pathlib import Path
 
-from agents.training.config import ROOT, RunConfig, parse_args
+from sma_gym.extras import MissingExtraError, require
+from sma_gym_agents.training.config import ROOT, RunConfig, parse_args
+
+TRAIN_NEEDS = ("stable_baselines3", "torch", "yaml", "tensorboard", "scipy", "matplotlib")
+"""What ``train.py`` imports beyond the lean install (the ``train`` extra)."""
 
 
 def default_out(run: RunConfig) -> Path:
@@ -19,18 +23,19 @@ def main(argv: list[str] | None = None) -> int:
     """Run ``train.py`` with ``argv``; 0 on success, 2 (message on stderr) on a bad option,
     1 if seeds of a ``--seeds`` sweep failed."""
     try:
+        require(*TRAIN_NEEDS, purpose="train.py", extra="train")
         args = parse_args(argv)
         if args.seeds is not None or args.workers is not None:
-            from agents.training.sweep import check_sweep_args, sweep_main
+            from sma_gym_agents.training.sweep import check_sweep_args, sweep_main
 
             check_sweep_args(args)
             return sweep_main(args, RunConfig.from_args(args))
         run = RunConfig.from_args(args)
         out = Path(args.out) if args.out else default_out(run)
-        from agents.training.run import train_and_compare
+        from sma_gym_agents.training.run import train_and_compare
 
         table, _ = train_and_compare(run, out, overwrite=args.overwrite, progress=not args.no_progress)
-    except ValueError as err:
+    except (ValueError, MissingExtraError) as err:
         print(f"train.py: error: {err}", file=sys.stderr)
         return 2
     print(table)

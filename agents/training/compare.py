@@ -14,8 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from agents.controllers import ALL_SPECS, PID, VSC3, with_feedforward
-from agents.evaluation import (
+from sma_gym_agents.controllers import ALL_SPECS, PID, VSC3, with_feedforward
+from sma_gym_agents.evaluation import (
     CHAPTER_7_CONDITIONS,
     PolicyEntry,
     Results,
@@ -24,9 +24,9 @@ from agents.evaluation import (
     run_chapter_7,
     run_table_6_1,
 )
-from agents.report import write_report
-from agents.trained import load_policy
-from agents.training.config import RunConfig
+from sma_gym_agents.report import write_report
+from sma_gym_agents.trained import load_policy
+from sma_gym_agents.training.config import RunConfig
 
 TRACKING, SELF_SENSING, ROBUST = "SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0"
 

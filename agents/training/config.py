@@ -17,8 +17,8 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from agents.card import CARD_SUFFIX, HISTORIES, PolicyCard
-from agents.controllers import ALL_SPECS, spec_by_label
+from sma_gym_agents.card import CARD_SUFFIX, HISTORIES, PolicyCard
+from sma_gym_agents.controllers import ALL_SPECS, spec_by_label
 
 ROOT = Path(__file__).resolve().parents[2]
 """The repository: ``train.py``, ``hyperparams/`` and the default ``runs/`` live here."""
@@ -29,8 +29,8 @@ QUICK_TIMESTEPS = 1_500
 DEFAULT_RESIDUAL_SCALE = 0.5
 EVAL_FREQ = {"sac": 20_000, "ppo": 250_000}
 """Default ``--eval-freq`` per algorithm: a command-line option, as in RL Zoo, not a hyperparameter."""
-RESIDUAL_WRAPPER = "agents.training.envs.ResidualVecEnv"
-HISTORY_WRAPPER = "agents.training.envs.HistoryVecEnv"
+RESIDUAL_WRAPPER = "sma_gym_agents.training.envs.ResidualVecEnv"
+HISTORY_WRAPPER = "sma_gym_agents.training.envs.HistoryVecEnv"
 NOT_FOR_TRAIN_PY = {
     "SMAMultiplexed-v0": "train.py compares its agent with the report's single-wire controllers; "
     'train this env with RL Zoo (README "Training")',
@@ -95,7 +95,7 @@ def agent_features(wrappers: Any) -> tuple[str, str | None, float]:
     parsed = [(next(iter(w)), dict(next(iter(w.values())) or {})) if isinstance(w, dict) else (w, {}) for w in items]
     names = [name for name, _ in parsed]
     if names not in ([], [RESIDUAL_WRAPPER], [HISTORY_WRAPPER], [RESIDUAL_WRAPPER, HISTORY_WRAPPER]):
-        # train.py rebuilds the agent's view at evaluation (agents.trained.AgentPolicy), which
+        # train.py rebuilds the agent's view at evaluation (sma_gym_agents.trained.AgentPolicy), which
         # knows these two features in this order only.
         raise ValueError(
             f"vec_env_wrapper {names}: train.py knows {RESIDUAL_WRAPPER} then {HISTORY_WRAPPER}, each optional"
@@ -190,9 +190,9 @@ class RunConfig:
     n_envs: int
     frame_stack: int
     history: str
-    """``"none"`` or ``"ema"`` (:mod:`agents.history`)."""
+    """``"none"`` or ``"ema"`` (:mod:`sma_gym_agents.history`)."""
     residual: str | None
-    """Label of the controller the agent corrects (:mod:`agents.residual`), or None."""
+    """Label of the controller the agent corrects (:mod:`sma_gym_agents.residual`), or None."""
     residual_scale: float
     """Largest correction, as a fraction of full duty."""
     eval_freq: int

@@ -2,9 +2,9 @@
 
 :func:`make_vec_env` builds the training envs, :func:`make_validation_env` the held-out
 validation envs; both wrap them in the same agent view (:func:`agent_view`), the order
-:class:`agents.trained.AgentPolicy` rebuilds at evaluation. The two stable-baselines3
-wrappers here hold the very objects evaluation uses (:class:`agents.residual.ResidualStep`,
-:class:`agents.history.HistoryFeatures`), so training and evaluation compute identically.
+:class:`sma_gym_agents.trained.AgentPolicy` rebuilds at evaluation. The two stable-baselines3
+wrappers here hold the very objects evaluation uses (:class:`sma_gym_agents.residual.ResidualStep`,
+:class:`sma_gym_agents.history.HistoryFeatures`), so training and evaluation compute identically.
 """
 
 from __future__ import annotations
@@ -22,13 +22,13 @@ from stable_baselines3.common.vec_env import (
 )
 
 import sma_gym  # noqa: F401  (registers the ids)
-from agents.history import HistoryFeatures
-from agents.policies import env_attr
-from agents.residual import ResidualStep
-from agents.training.config import RunConfig
 from sma_gym.envs import references as refs
 from sma_gym.envs.sb3 import SB3VecEnv
 from sma_gym.params import preset
+from sma_gym_agents.history import HistoryFeatures
+from sma_gym_agents.policies import env_attr
+from sma_gym_agents.residual import ResidualStep
+from sma_gym_agents.training.config import RunConfig
 
 VALIDATION_SEED = 10_000
 """First seed of the validation references (training draws its references from seeds below)."""
@@ -112,7 +112,7 @@ def agent_view(
     residual_scale: float,
 ) -> VecEnv:
     """What the agent sees and does on top of the env: residual base controller, history
-    features, frame stack (the order :class:`agents.trained.AgentPolicy` rebuilds)."""
+    features, frame stack (the order :class:`sma_gym_agents.trained.AgentPolicy` rebuilds)."""
     if residual is not None:
         venv = ResidualVecEnv(venv, residual, residual_scale)
     if history == "ema":

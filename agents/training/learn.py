@@ -1,8 +1,8 @@
 """The training loop: stable-baselines3 ``learn`` with validation, checkpoints and progress.
 
 Every model written (checkpoints, the best on validation, the final one) is an ordinary
-stable-baselines3 zip with its card (:class:`agents.card.PolicyCard`), each written
-atomically with the SHA-256 of its zip (:func:`agents.trained.save_policy`).
+stable-baselines3 zip with its card (:class:`sma_gym_agents.card.PolicyCard`), each written
+atomically with the SHA-256 of its zip (:func:`sma_gym_agents.trained.save_policy`).
 """
 
 from __future__ import annotations
@@ -21,9 +21,9 @@ from stable_baselines3.common.callbacks import (
     EvalCallback,
 )
 
-from agents.trained import save_policy
-from agents.training.config import RunConfig
-from agents.training.envs import (
+from sma_gym_agents.trained import save_policy
+from sma_gym_agents.training.config import RunConfig
+from sma_gym_agents.training.envs import (
     make_training_env,
     make_validation_env,
     validation_references,

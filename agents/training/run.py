@@ -1,7 +1,7 @@
 """One training run into its folder: train, compare with the baselines, write the results.
 
-The single-run path of ``train.py``, shared by its command line (:mod:`agents.training.cli`)
-and by every seed of a sweep (:mod:`agents.training.sweep`).
+The single-run path of ``train.py``, shared by its command line (:mod:`sma_gym_agents.training.cli`)
+and by every seed of a sweep (:mod:`sma_gym_agents.training.sweep`).
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from agents.training.config import RunConfig, prepare_out
+from sma_gym_agents.training.config import RunConfig, prepare_out
 
 
 def train_and_compare(
@@ -24,8 +24,8 @@ def train_and_compare(
     # Every argument, --out included, is checked before anything is created.
     check_output_folder(out, must_be_empty=not overwrite)
     # Imported after the checks: a bad option is refused without loading stable-baselines3.
-    from agents.training.compare import compare
-    from agents.training.learn import train
+    from sma_gym_agents.training.compare import compare
+    from sma_gym_agents.training.learn import train
 
     with locked_folder(out):
         if overwrite:

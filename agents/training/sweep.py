@@ -1,10 +1,10 @@
-"""Results over seeds: ``train.py --seeds N`` (or ``python -m agents.training.sweep``).
+"""Results over seeds: ``train.py --seeds N`` (or ``python -m sma_gym_agents.training.sweep``).
 
 One seed is an anecdote. The sweep runs the same configuration with seeds ``--seed`` ..
 ``--seed + N - 1``, each as an ordinary ``train.py`` run in its own process and its own
 folder (``<out>/seed-<s>/``, the single-run code path unchanged; its output in
 ``<out>/logs/seed-<s>.log``), ``--workers`` at a time. It then reports every goal of
-:data:`agents.training.compare.GOALS` over the seeds the rliable way (Agarwal et al.,
+:data:`sma_gym_agents.training.compare.GOALS` over the seeds the rliable way (Agarwal et al.,
 "Deep RL at the edge of the statistical precipice", 2021): the interquartile mean (the
 mean of the middle 50 % of the seeds, :func:`iqm`) with a 95 % percentile bootstrap
 interval over seeds (:func:`bootstrap_ci`; with one task per goal the stratified
@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.training.config import ROOT, RunConfig, build_parser, parse_args
+from sma_gym_agents.training.config import ROOT, RunConfig, build_parser, parse_args
 
 BOOTSTRAP_RESAMPLES = 2_000
 BOOTSTRAP_SEED = 0
@@ -141,7 +141,7 @@ def seed_argv(parser: argparse.ArgumentParser, args: argparse.Namespace, seed: i
 
 def seed_command(argv: list[str]) -> list[str]:
     """The process of one seed's run: ``train.py``'s command in a fresh interpreter."""
-    return [sys.executable, "-m", "agents.training", *argv]
+    return [sys.executable, "-m", "sma_gym_agents.training", *argv]
 
 
 def _run_seed_process(argv: list[str], log: Path, threads: int) -> int:
@@ -163,7 +163,7 @@ def run_seed(options: list[str], seed: int, out: str | Path) -> dict[str, Any]:
     ``--out``) and return its goals (as ``goals.json`` records them): the function a
     cluster engine (README "Training", Ray Tune) calls once per seed. ``ValueError`` on a
     bad option, as ``train.py`` exits 2."""
-    from agents.training.run import train_and_compare
+    from sma_gym_agents.training.run import train_and_compare
 
     run = RunConfig.from_args(parse_args([*options, "--seed", str(seed)]))
     _, goals = train_and_compare(run, Path(out), progress=False)
@@ -274,7 +274,7 @@ def sweep_main(args: argparse.Namespace, run: RunConfig) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m agents.training.sweep``: ``train.py`` with ``--seeds`` (default 5)."""
+    """``python -m sma_gym_agents.training.sweep``: ``train.py`` with ``--seeds`` (default 5)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if not any(a == "--seeds" or a.startswith("--seeds=") for a in argv):
         argv = ["--seeds", "5", *argv]

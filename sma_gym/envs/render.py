@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from sma_gym.extras import require
+
 WIDTH_IN = 6.4
 DPI = 100
 """Frames are 640 x 640 pixels."""
@@ -182,6 +184,8 @@ class Renderer:
     def __init__(self, render_mode: str | None, modes: Sequence[str]):
         if render_mode is not None and render_mode not in modes:
             raise ValueError(f"render_mode = {render_mode!r}: expected one of {list(modes)} or None")
+        if render_mode is not None:
+            require("matplotlib", purpose=f"render_mode={render_mode!r}", extra="plots")
         self.render_mode = render_mode
         self.history = EpisodeHistory()
         self._plot: EpisodePlot | None = None

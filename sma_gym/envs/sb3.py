@@ -36,10 +36,15 @@ from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode
-from stable_baselines3.common.monitor import Monitor
-from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 from sma_gym.envs.task import INFO
+from sma_gym.extras import extra_error
+
+try:
+    from stable_baselines3.common.monitor import Monitor
+    from stable_baselines3.common.vec_env.base_vec_env import VecEnv
+except ModuleNotFoundError as err:
+    raise extra_error(err, "sma_gym.envs.sb3 (the stable-baselines3 adapter)", "train") from err
 
 _PER_STEP_INFO = tuple(INFO)
 
