@@ -13,7 +13,10 @@
   ramps at 10 V, beside Tables 8.1 / 8.2.
 * **Chapter 9**: rise time and oscillation against the number of multiplexed actuators
   (1, 8, 16), the cycling frequency (100-4000 Hz) and the supply (10, 15, 20 V), and the
-  I/O counts of Table 9.1.
+  I/O counts of Table 9.1, for PID on fixed slots (the report's scheme) and PID under the
+  budget allocator on a shared budget (:mod:`sma_gym_agents.bank`); and the bank step
+  (issue 16): 16 actuators at 10 V, 15 holding random positions, one stepping 0 -> 8 mm,
+  rise time of the stepping one in both schemes.
 
 Every run also records the RMS tracking error and the electrical energy, over several
 seeds (sensor noise differs per seed); tables give the mean and the worst case over seeds,
@@ -39,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+from sma_gym_agents.bank import bank_policy
 from sma_gym_agents.controllers import ALL_SPECS, PID, VSC3, VSC4, ControllerSpec, spec_by_label, with_feedforward
 from sma_gym_agents.policies import ControllerPolicy, SelfSensingPolicy
 from sma_gym_agents.trained import AgentPolicy
@@ -91,6 +95,16 @@ CHAPTER_9_STEP_M = 3e-3
 CHAPTER_9_SECONDS = {1: 4.0, 8: 10.0, 16: 25.0}
 CHAPTER_9_COUNTS = ((1, 10.0), (8, 10.0), (16, 10.0), (16, 15.0), (16, 20.0), (1, 20.0), (8, 20.0))
 CHAPTER_9_FREQUENCIES = (100.0, 500.0, 1000.0, 2000.0, 3000.0, 4000.0)
+BANK_STEP_N = 16
+BANK_STEP_VOLTAGE_V = 10.0
+BANK_STEP_LEVEL_M = 8e-3
+BANK_HOLD_RANGE_M = (1e-3, 6e-3)
+"""The holders' positions are drawn uniformly from this range (within the stroke, and each
+holdable on a 1/16 slot at 10 V: holding 8 mm takes 5.8 % duty)."""
+BANK_STEP_TIME_S = 40.0
+"""The step comes after the holders have settled in both schemes (fixed slots take ~30 s)."""
+BANK_STEP_MAX_S = 300.0
+"""Longest wait for the stepping actuator after its step; not reached by then: rise = inf."""
 
 
 # --------------------------------------------------------------------------------------
@@ -119,6 +133,19 @@ def baseline(spec: ControllerSpec | str, self_sensing: bool = False) -> PolicyEn
             env_id="SMASelfSensing-v0",
         )
     return PolicyEntry(s.label, lambda env, s=s: ControllerPolicy(s, env))
+
+
+def bank_entry(spec: ControllerSpec | str, scheme: str) -> PolicyEntry:
+    """The report's controller per actuator on a multiplexed bank: on fixed slots (Table 9.1's
+    scheme) or under the budget allocator on a shared budget (:func:`sma_gym_agents.bank.bank_policy`)."""
+    s = spec_by_label(spec) if isinstance(spec, str) else spec
+    suffix = "budget allocator" if scheme == "shared_budget" else "fixed slots"
+    return PolicyEntry(
+        f"{s.label} ({suffix})",
+        lambda env, s=s: bank_policy(s, env),
+        env_id="SMAMultiplexed-v0",
+        env_kwargs={"control_period_s": BASELINE_PERIOD_S, "scheme": scheme},
+    )
 
 
 def agent_entry(agent: AgentPolicy) -> PolicyEntry:
@@ -183,25 +210,16 @@ def make_venv(entry: PolicyEntry, n_envs: int, seconds: float, env_kwargs: dict)
     return venv, steps, dt
 
 
-def rollout(
-    entry: PolicyEntry,
-    *,
-    model: Any = "standard",
-    reference: Any,
-    seconds: float,
-    seeds: Sequence[int] = DEFAULT_SEEDS,
-    noise_m: float = EVAL_NOISE_M,
-    env_kwargs: dict | None = None,
-) -> Trace:
+def rollout(entry: PolicyEntry, **options: Any) -> Trace:
     """Run ``entry`` once per seed on ``reference`` for ``seconds``; record the true state.
 
-    Seed i of the run is ``seeds[0] + i`` (sensor noise differs per seed). Agents trained
-    on stacked observations get them stacked by stable-baselines3's own
-    ``StackedObservations``, exactly as ``VecFrameStack`` did in training.
+    ``options`` are :func:`rollouts`'s keywords (``model``, ``reference``, ``seconds``,
+    ``seeds``, ``noise_m``, ``env_kwargs``). Seed i of the run is ``seeds[0] + i`` (sensor
+    noise differs per seed). Agents trained on stacked observations get them stacked by
+    stable-baselines3's own ``StackedObservations``, exactly as ``VecFrameStack`` did in
+    training.
     """
-    return rollouts(
-        [entry], model=model, reference=reference, seconds=seconds, seeds=seeds, noise_m=noise_m, env_kwargs=env_kwargs
-    )[0]
+    return rollouts([entry], **options)[0]
 
 
 def rollouts(
@@ -390,7 +408,16 @@ def _signed_extreme(e: np.ndarray) -> float:
 # --------------------------------------------------------------------------------------
 # Results
 # --------------------------------------------------------------------------------------
-LOWER_IS_BETTER = {"overshoot_m", "rms_error_m", "energy_j", "rise_time_s", "oscillation_p2p_m"}
+LOWER_IS_BETTER = {
+    "overshoot_m",
+    "rms_error_m",
+    "energy_j",
+    "rise_time_s",
+    "half_rise_time_s",
+    "oscillation_p2p_m",
+    "holders_settled_error_m",
+    "holders_max_error_m",
+}
 ABS_LOWER_IS_BETTER = {"steady_state_error_m", "max_error_heating_m", "max_error_cooling_m"}
 
 
@@ -427,7 +454,7 @@ def _records(
             mean = float(np.nanmean(v))
             if name in ABS_LOWER_IS_BETTER:
                 worst = float(v[np.nanargmax(np.abs(v))]) if np.any(np.isfinite(v)) else math.nan
-            elif name == "efficiency_percent":
+            elif name in ("efficiency_percent", "highest_position_m"):
                 worst = float(np.nanmin(v))
             else:
                 worst = float(np.nanmax(v))
@@ -610,6 +637,84 @@ def run_chapter_9(
             results.traces[("9", entry.name, label, "3 mm step")] = trace
 
 
+def bank_step_references(
+    n: int = BANK_STEP_N, seed: int = 0, step_time_s: float = BANK_STEP_TIME_S
+) -> list[dict[str, Any]]:
+    """Actuator 0 steps 0 -> 8 mm at ``step_time_s``; the others go at once to random
+    positions in :data:`BANK_HOLD_RANGE_M` (drawn from ``seed``) and hold them."""
+    levels = np.random.default_rng(seed).uniform(*BANK_HOLD_RANGE_M, n - 1)
+    step = {"kind": "step", "t1_s": step_time_s, "level1_m": BANK_STEP_LEVEL_M}
+    return [step] + [{"kind": "step", "t1_s": 0.0, "level1_m": float(x)} for x in levels]
+
+
+def bank_step(
+    entry: PolicyEntry,
+    n: int = BANK_STEP_N,
+    voltage_v: float = BANK_STEP_VOLTAGE_V,
+    seed: int = 0,
+    noise_m: float = EVAL_NOISE_M,
+    max_after_s: float = BANK_STEP_MAX_S,
+    step_time_s: float = BANK_STEP_TIME_S,
+) -> dict[str, float]:
+    """One bank step (:func:`bank_step_references`) of a bank entry (:func:`bank_entry`).
+
+    Returns ``rise_time_s`` (step to 90 % of 8 mm on the true position, ``inf`` if not within
+    ``max_after_s``), ``half_rise_time_s`` (to 50 %, a finite comparison where a fixed slot
+    cannot deliver 90 %), ``highest_position_m`` (of the stepping one, up to the rise),
+    ``holders_settled_error_m`` (the holders' largest |error| just before the step: were
+    they holding?) and ``holders_max_error_m`` (their largest |error| from the step until
+    the rise: what the stepping one cost them). The run stops at the rise.
+    """
+    import gymnasium as gym
+
+    import sma_gym  # noqa: F401  (registers the ids)
+
+    kwargs = {**entry.env_kwargs, "n_actuators": n, "model": f"supply-{voltage_v:g}v", "position_noise_std_m": noise_m}
+    env = gym.make("sma_gym:" + entry.env_id, max_episode_steps=None, **kwargs).unwrapped
+    policy = entry.make(env)
+    obs, _ = env.reset(seed=seed, options={"references": bank_step_references(n, seed, step_time_s)})
+    dt = env.control_period_s
+    step_k = int(round(step_time_s / dt))
+    settled = math.nan
+    worst = highest = 0.0
+    half = rise = math.inf
+    for k in range(step_k + int(round(max_after_s / dt))):
+        action, _ = policy.predict(obs, episode_start=np.array([k == 0]), deterministic=True)
+        obs, _, terminated, _, info = env.step(action)
+        if terminated:
+            raise RuntimeError(f"{entry.name}: the bank step ended early (overheated?) at t = {info['time_s']} s")
+        x, r = env.sim.position_m, info["reference_m"]
+        if k + 1 == step_k:
+            settled = float(np.max(np.abs(r[1:] - x[1:])))
+        if k + 1 > step_k:
+            worst = max(worst, float(np.max(np.abs(r[1:] - x[1:]))))
+            highest = max(highest, float(x[0]))
+            if math.isinf(half) and x[0] >= 0.5 * BANK_STEP_LEVEL_M:
+                half = (k + 1 - step_k) * dt
+            if x[0] >= 0.9 * BANK_STEP_LEVEL_M:
+                rise = (k + 1 - step_k) * dt
+                break
+    env.close()
+    return {
+        "rise_time_s": rise,
+        "half_rise_time_s": half,
+        "highest_position_m": highest,
+        "holders_settled_error_m": settled,
+        "holders_max_error_m": worst,
+    }
+
+
+def run_bank_step(entries: Sequence[PolicyEntry], results: Results, seeds: Sequence[int] = (0,)) -> None:
+    """Chapter 9's bank step (issue 16) for bank entries, over ``seeds`` (the holders' levels
+    and the sensor noise differ per seed); records under experiment ``"9 bank"``."""
+    label = f"{BANK_STEP_N} actuators, 2000 Hz, {BANK_STEP_VOLTAGE_V:g} V"
+    for entry in entries:
+        runs = [bank_step(entry, seed=int(seed)) for seed in seeds]
+        metrics = {key: np.array([run[key] for run in runs]) for key in runs[0]}
+        # Its own experiment id: chapter 9's table reads oscillation and overshoot for every "9" row.
+        results.records += _records("9 bank", entry.name, label, "bank step 0 -> 8 mm, others hold", metrics)
+
+
 def default_entries(self_sensing: bool = False) -> list[PolicyEntry]:
     entries = [baseline(s) for s in ALL_SPECS]
     if self_sensing:
@@ -646,7 +751,9 @@ def evaluate(
         run_chapter_8(chosen + tracking_agents, results, seeds)
     if "9" in experiments:
         chosen = [e for e in base if e.name == "PID"] if baselines is None else base
-        run_chapter_9(chosen, results)
+        banks = [bank_entry(PID, "fixed_slots"), bank_entry(PID, "shared_budget")]
+        run_chapter_9(chosen + ([banks[1]] if baselines is None else []), results)
+        run_bank_step(banks, results)
     if "self-sensing" in experiments:
         # The report's self-sensing setup (§4.2): a fan; compared with the same controllers
         # reading the position sensor under the same conditions.

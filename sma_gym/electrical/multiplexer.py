@@ -70,13 +70,24 @@ class Multiplexer:
             raise ValueError(f"duties have shape {duty.shape}: expected ({self.n_actuators},)")
         if self.scheme == "fixed_slots":
             return duty, np.zeros_like(duty)
-        total = float(duty.sum())
-        if total > 1.0:
-            duty = duty / total
+        duty = scale_to_budget(duty)
         start = np.cumsum(duty) - duty
         # Rounding of the running sum must not push a pulse past the cycle's end.
         start = np.clip(np.minimum(start, 1.0 - duty), 0.0, np.nextafter(1.0, 0.0))
         return duty, start
+
+
+def scale_to_budget(duty: np.ndarray, budget: float = 1.0) -> np.ndarray:
+    """The shared budget's rule: duties (last axis: the actuators of one bank) kept as they
+    are if they sum to at most ``budget``, else each multiplied by ``budget / sum``.
+
+    Proportional scaling keeps every actuator's share of what was asked, so no actuator is
+    starved and none is favoured by its index; it needs no state and no priorities. Batches
+    (leading axes) are scaled bank by bank.
+    """
+    d = np.asarray(duty, dtype=float)
+    total = d.sum(axis=-1, keepdims=True)
+    return d * np.minimum(1.0, budget / np.maximum(total, np.finfo(float).tiny))
 
 
 def io_counts(n_actuators: int) -> dict[str, int]:
