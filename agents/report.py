@@ -193,30 +193,28 @@ def write_report(results: Results, out: Path) -> list[Path]:
         sections += [table_6_1_markdown(results, condition), ""]
     groups = plot_groups(policies_61)
     if "standard" in conditions_61:
-        for refname, fig in (("step", "6_2"), ("sine", "6_3")):
-            paths.append(
-                _plot_responses(
-                    results,
-                    "6.1",
-                    "standard",
-                    refname,
-                    groups["without_ff"] + groups["agents"],
-                    f"{refname} response (cf. fig. {fig.replace('_', '.')})",
-                    out / f"fig{fig}_{refname}.png",
+        # Figs. 6.2/6.3 without feedforward, 6.5/6.6 with it.
+        for group, figures, title, suffix in (
+            ("without_ff", (("step", "6_2"), ("sine", "6_3")), "{} response (cf. fig. {})", ""),
+            (
+                "with_ff",
+                (("step", "6_5"), ("sine", "6_6")),
+                "{} response with feedforward (cf. fig. {})",
+                "_feedforward",
+            ),
+        ):
+            for refname, fig in figures:
+                paths.append(
+                    _plot_responses(
+                        results,
+                        "6.1",
+                        "standard",
+                        refname,
+                        groups[group] + groups["agents"],
+                        title.format(refname, fig.replace("_", ".")),
+                        out / f"fig{fig}_{refname}{suffix}.png",
+                    )
                 )
-            )
-        for refname, fig in (("step", "6_5"), ("sine", "6_6")):
-            paths.append(
-                _plot_responses(
-                    results,
-                    "6.1",
-                    "standard",
-                    refname,
-                    groups["with_ff"] + groups["agents"],
-                    f"{refname} response with feedforward (cf. fig. {fig.replace('_', '.')})",
-                    out / f"fig{fig}_{refname}_feedforward.png",
-                )
-            )
     if "self-sensing" in conditions_61:
         for refname in ("step", "sine"):
             paths.append(

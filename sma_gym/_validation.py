@@ -7,6 +7,8 @@ says what was expected, so a user never has to read a numpy traceback.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -126,3 +128,34 @@ def _unit(unit: str) -> str:
 
 def _why(why: str) -> str:
     return f": {why}" if why else ""
+
+
+@dataclass(frozen=True)
+class Bound:
+    """The physical range of one or more numeric fields of a parameter dataclass: one row of
+    its ``_BOUNDS`` table, checked by :func:`check_bounds` (the message gives ``why``)."""
+
+    fields: tuple[str, ...]
+    lower: float
+    upper: float
+    unit: str = ""
+    why: str = ""
+    lower_open: bool = False
+    upper_open: bool = False
+
+
+def check_bounds(obj: Any, bounds: Sequence[Bound]) -> None:
+    """:func:`require_range` on every field of every row of ``bounds``, named ``Class.field``."""
+    owner = type(obj).__name__
+    for b in bounds:
+        for name in b.fields:
+            require_range(
+                f"{owner}.{name}",
+                getattr(obj, name),
+                b.lower,
+                b.upper,
+                b.unit,
+                lower_open=b.lower_open,
+                upper_open=b.upper_open,
+                why=b.why,
+            )

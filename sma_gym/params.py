@@ -24,12 +24,9 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, ClassVar
 
-from sma_gym._validation import (
-    require_choice,
-    require_range,
-)
+from sma_gym._validation import Bound, check_bounds, require_choice, require_range
 from sma_gym.physics.transformation import MINOR_LOOP_LAWS
 
 
@@ -146,133 +143,105 @@ class Wire:
     resistivity_reference_c: float = 20.0
     """T_ref [degC] = 20: temperature at which rho_M and rho_A are given."""
 
-    def validate(self) -> None:
-        """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
-        # Bounds are what a NiTi-type actuator wire can physically be, wide enough for every
-        # alloy and wire sold, narrow enough to catch unit slips (mm for m, GPa for Pa, J/(g K)
-        # for J/(kg K)) and the degenerate wires that make the simulation meaningless.
-        require_range(
-            "Wire.diameter_m",
-            self.diameter_m,
+    # Bounds are what a NiTi-type actuator wire can physically be, wide enough for every
+    # alloy and wire sold, narrow enough to catch unit slips (mm for m, GPa for Pa, J/(g K)
+    # for J/(kg K)) and the degenerate wires that make the simulation meaningless.
+    _BOUNDS: ClassVar[tuple[Bound, ...]] = (
+        Bound(
+            ("diameter_m",),
             25e-6,
             2e-3,
-            "m",
+            unit="m",
             why="actuator wires are drawn from 25 um (the thinnest Flexinol) to about 2 mm",
-        )
-        require_range(
-            "Wire.length_m",
-            self.length_m,
+        ),
+        Bound(
+            ("length_m",),
             0.01,
             5.0,
-            "m",
+            unit="m",
             why="shorter than 1 cm strokes only micrometres (and heats in microseconds); "
             "longer than 5 m is not a single actuator wire",
-        )
-        require_range(
-            "Wire.density_kg_m3",
-            self.density_kg_m3,
+        ),
+        Bound(
+            ("density_kg_m3",),
             5000.0,
             9000.0,
-            "kg/m^3",
+            unit="kg/m^3",
             why="NiTi is 6450-6500 kg/m^3, copper-based shape-memory alloys up to about 8000",
-        )
-        require_range(
-            "Wire.specific_heat_j_kg_k",
-            self.specific_heat_j_kg_k,
+        ),
+        Bound(
+            ("specific_heat_j_kg_k",),
             200.0,
             2000.0,
-            "J/(kg K)",
+            unit="J/(kg K)",
             why="metals lie in 100-1000 J/(kg K), NiTi 320-840; 0.84 would be J/(g K)",
-        )
-        for name in ("youngs_modulus_austenite_pa", "youngs_modulus_martensite_pa"):
-            require_range(
-                f"Wire.{name}",
-                getattr(self, name),
-                1e9,
-                300e9,
-                "Pa",
-                why="NiTi is 20-90 GPa, no metal exceeds 300 GPa; 83 would be GPa",
-            )
-        for name in ("stress_coefficient_austenite_pa_k", "stress_coefficient_martensite_pa_k"):
-            require_range(
-                f"Wire.{name}",
-                getattr(self, name),
-                1e6,
-                50e6,
-                "Pa/K",
-                why="Clausius-Clapeyron slopes of shape-memory alloys are 2-20 MPa/K",
-            )
-        require_range(
-            "Wire.max_transformation_strain",
-            self.max_transformation_strain,
+        ),
+        Bound(
+            ("youngs_modulus_austenite_pa", "youngs_modulus_martensite_pa"),
+            1e9,
+            300e9,
+            unit="Pa",
+            why="NiTi is 20-90 GPa, no metal exceeds 300 GPa; 83 would be GPa",
+        ),
+        Bound(
+            ("stress_coefficient_austenite_pa_k", "stress_coefficient_martensite_pa_k"),
+            1e6,
+            50e6,
+            unit="Pa/K",
+            why="Clausius-Clapeyron slopes of shape-memory alloys are 2-20 MPa/K",
+        ),
+        Bound(
+            ("max_transformation_strain",),
             0.0,
             0.1,
-            lower_open=True,
             why="a fraction (not percent); NiTi recovers at most about 8 %",
-        )
-        for name in ("austenite_start_c", "austenite_finish_c", "martensite_start_c", "martensite_finish_c"):
-            require_range(
-                f"Wire.{name}",
-                getattr(self, name),
-                -150.0,
-                300.0,
-                "degC",
-                why="shape-memory alloys transform between about -150 degC and 300 degC (NiTiHf)",
-            )
-        require_range(
-            "Wire.resistivity_reference_c",
-            self.resistivity_reference_c,
-            -100.0,
+            lower_open=True,
+        ),
+        Bound(
+            ("austenite_start_c", "austenite_finish_c", "martensite_start_c", "martensite_finish_c"),
+            -150.0,
             300.0,
-            "degC",
-            why="a laboratory reference temperature",
-        )
-        for name in ("resistivity_martensite_ohm_m", "resistivity_austenite_ohm_m"):
-            require_range(
-                f"Wire.{name}",
-                getattr(self, name),
-                1e-7,
-                1e-5,
-                "ohm m",
-                why="NiTi is 0.7-1.0e-6 ohm m (70-100 uohm cm), metals 1e-8 to 1e-5",
-            )
-        require_range(
-            "Wire.transformation_spread_k",
-            self.transformation_spread_k,
+            unit="degC",
+            why="shape-memory alloys transform between about -150 degC and 300 degC (NiTiHf)",
+        ),
+        Bound(("resistivity_reference_c",), -100.0, 300.0, unit="degC", why="a laboratory reference temperature"),
+        Bound(
+            ("resistivity_martensite_ohm_m", "resistivity_austenite_ohm_m"),
+            1e-7,
+            1e-5,
+            unit="ohm m",
+            why="NiTi is 0.7-1.0e-6 ohm m (70-100 uohm cm), metals 1e-8 to 1e-5",
+        ),
+        Bound(
+            ("transformation_spread_k",),
             0.0,
             30.0,
-            "K",
+            unit="K",
             why="wider than 30 K the transformation would span more than its own hysteresis",
-        )
-        require_range(
-            "Wire.hysteron_width_spread", self.hysteron_width_spread, 0.0, 1.0, why="a fraction of the major-loop width"
-        )
-        require_choice("Wire.minor_loop_law", self.minor_loop_law, MINOR_LOOP_LAWS)
-        require_range(
-            "Wire.latent_heat_j_kg",
-            self.latent_heat_j_kg,
+        ),
+        Bound(("hysteron_width_spread",), 0.0, 1.0, why="a fraction of the major-loop width"),
+        Bound(
+            ("latent_heat_j_kg",),
             0.0,
             60000.0,
-            "J/kg",
+            unit="J/kg",
             why="NiTi releases 15-30 J/g (Flexinol 24.2 J/g); no alloy exceeds about 60 J/g",
-        )
-        require_range(
-            "Wire.thermal_expansion_1_k",
-            self.thermal_expansion_1_k,
-            -1e-4,
-            1e-4,
-            "1/K",
-            why="metals expand by about 1e-5 per kelvin",
-        )
-        for name in ("resistivity_tcr_martensite_1_k", "resistivity_tcr_austenite_1_k"):
-            require_range(
-                f"Wire.{name}",
-                getattr(self, name),
-                -5e-3,
-                5e-3,
-                "1/K",
-                why="metal resistivities change by at most about 0.5 % per kelvin",
-            )
+        ),
+        Bound(("thermal_expansion_1_k",), -1e-4, 1e-4, unit="1/K", why="metals expand by about 1e-5 per kelvin"),
+        Bound(
+            ("resistivity_tcr_martensite_1_k", "resistivity_tcr_austenite_1_k"),
+            -5e-3,
+            5e-3,
+            unit="1/K",
+            why="metal resistivities change by at most about 0.5 % per kelvin",
+        ),
+    )
+    """The physical range of each numeric field (checked by :meth:`validate`)."""
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
+        check_bounds(self, self._BOUNDS)
+        require_choice("Wire.minor_loop_law", self.minor_loop_law, MINOR_LOOP_LAWS)
         if self.austenite_finish_c <= self.austenite_start_c:
             raise ValueError(
                 f"Wire.austenite_finish_c = {self.austenite_finish_c!r}: expected a value > "
@@ -352,40 +321,41 @@ class Mechanism:
     wire (§3.2), so 2 N holds for the 0.2 and 0.5 mm wires as well. The wire's stress at rest
     is sigma0 = F_pre / A."""
 
-    def validate(self) -> None:
-        """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
-        require_range(
-            "Mechanism.moving_mass_kg",
-            self.moving_mass_kg,
+    _BOUNDS: ClassVar[tuple[Bound, ...]] = (
+        Bound(
+            ("moving_mass_kg",),
             1e-4,
             10.0,
-            "kg",
+            unit="kg",
             why="from a 0.1 g pointer to 10 kg, more than any wire actuator lifts",
-        )
-        require_range(
-            "Mechanism.damping_n_s_m",
-            self.damping_n_s_m,
+        ),
+        Bound(
+            ("damping_n_s_m",),
             0.0,
             1e4,
-            "N s/m",
+            unit="N s/m",
             why="viscous friction of a small mechanism (1e4 N s/m would hold 10 kN at 1 m/s)",
-        )
-        require_range(
-            "Mechanism.spring_stiffness_n_m",
-            self.spring_stiffness_n_m,
+        ),
+        Bound(
+            ("spring_stiffness_n_m",),
             0.0,
             1e5,
-            "N/m",
+            unit="N/m",
             why="bias springs of wire actuators are 10-1e4 N/m; 1e5 N/m is already stiffer than most wires",
-        )
-        require_range(
-            "Mechanism.spring_preload_n",
-            self.spring_preload_n,
+        ),
+        Bound(
+            ("spring_preload_n",),
             0.0,
             1000.0,
-            "N",
+            unit="N",
             why="the thickest wires are loaded with tens of newtons and break below 1000 N",
-        )
+        ),
+    )
+    """The physical range of each numeric field (checked by :meth:`validate`)."""
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
+        check_bounds(self, self._BOUNDS)
 
 
 @dataclass(frozen=True)
@@ -417,49 +387,43 @@ class Convection:
     diameter_exponent: float = -0.556
     """n [-] = -0.556: h scales as (d/d_ref)^n (Morgan correlation, see class docstring)."""
 
-    def validate(self) -> None:
-        """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
-        require_range(
-            "Convection.h0_w_m2_k",
-            self.h0_w_m2_k,
+    _BOUNDS: ClassVar[tuple[Bound, ...]] = (
+        Bound(
+            ("h0_w_m2_k",),
             0.0,
             2e4,
-            "W/(m^2 K)",
+            unit="W/(m^2 K)",
             why="from still air (about 10) to water cooling (about 1e4) of a thin wire",
-        )
-        require_range(
-            "Convection.h2_w_m2_k3",
-            self.h2_w_m2_k3,
+        ),
+        Bound(
+            ("h2_w_m2_k3",),
             0.0,
             0.1,
-            "W/(m^2 K^3)",
+            unit="W/(m^2 K^3)",
             why="the growth of h with temperature; 0.1 already adds 1000 W/(m^2 K) at 100 degC",
-        )
-        if self.h0_w_m2_k == 0.0 and self.h2_w_m2_k3 == 0.0:
-            raise ValueError("Convection.h0_w_m2_k = 0.0: expected h0 > 0 or h2 > 0 (a wire must lose heat)")
-        require_range(
-            "Convection.ambient_temperature_c",
-            self.ambient_temperature_c,
-            -60.0,
-            200.0,
-            "degC",
-            why="an ambient a wire actuator works in",
-        )
-        require_range(
-            "Convection.reference_diameter_m",
-            self.reference_diameter_m,
+        ),
+        Bound(("ambient_temperature_c",), -60.0, 200.0, unit="degC", why="an ambient a wire actuator works in"),
+        Bound(
+            ("reference_diameter_m",),
             25e-6,
             2e-3,
-            "m",
+            unit="m",
             why="the diameter of a wire h0 and h2 were measured on (25 um to 2 mm, as Wire.diameter_m)",
-        )
-        require_range(
-            "Convection.diameter_exponent",
-            self.diameter_exponent,
+        ),
+        Bound(
+            ("diameter_exponent",),
             -2.0,
             2.0,
             why="convection correlations scale h with d to a power between about -1 and 0",
-        )
+        ),
+    )
+    """The physical range of each numeric field (checked by :meth:`validate`)."""
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
+        check_bounds(self, self._BOUNDS)
+        if self.h0_w_m2_k == 0.0 and self.h2_w_m2_k3 == 0.0:
+            raise ValueError("Convection.h0_w_m2_k = 0.0: expected h0 > 0 or h2 > 0 (a wire must lose heat)")
 
     def scale_for(self, diameter_m: float) -> float:
         """Multiplier on h0 and h2 for a wire of ``diameter_m``."""
@@ -492,33 +456,32 @@ class Driver:
     choice: an end-of-travel switch has some hysteresis, and without it the cut would chatter
     at the PWM rate)."""
 
-    def validate(self) -> None:
-        """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
-        require_range(
-            "Driver.supply_voltage_v",
-            self.supply_voltage_v,
+    _BOUNDS: ClassVar[tuple[Bound, ...]] = (
+        Bound(
+            ("supply_voltage_v",),
             0.0,
             60.0,
-            "V",
-            lower_open=True,
+            unit="V",
             why="wire actuators run from a few volts; above 60 V is no longer a safety extra-low voltage",
-        )
-        require_range(
-            "Driver.pwm_frequency_hz",
-            self.pwm_frequency_hz,
-            1.0,
-            100e3,
-            "Hz",
-            why="a MOSFET PWM driver switches between 1 Hz and 100 kHz",
-        )
-        require_range(
-            "Driver.settling_time_s",
-            self.settling_time_s,
+            lower_open=True,
+        ),
+        Bound(
+            ("pwm_frequency_hz",), 1.0, 100e3, unit="Hz", why="a MOSFET PWM driver switches between 1 Hz and 100 kHz"
+        ),
+        Bound(
+            ("settling_time_s",),
             0.0,
             1e-3,
-            "s",
+            unit="s",
             why="voltage and current settle within microseconds to a millisecond after switch-on",
-        )
+        ),
+        Bound(("end_of_travel_release_m",), 0.0, 1.0, unit="m", why="the hysteresis of the end-of-travel switch"),
+    )
+    """The physical range of each numeric field (checked by :meth:`validate`)."""
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
+        check_bounds(self, self._BOUNDS)
         if not (self.end_of_travel_m == math.inf):
             require_range(
                 "Driver.end_of_travel_m",
@@ -529,14 +492,6 @@ class Driver:
                 lower_open=True,
                 why="an end-of-travel cut within the stroke of a wire actuator, or inf for none",
             )
-        require_range(
-            "Driver.end_of_travel_release_m",
-            self.end_of_travel_release_m,
-            0.0,
-            1.0,
-            "m",
-            why="the hysteresis of the end-of-travel switch",
-        )
 
 
 @dataclass(frozen=True)
@@ -564,51 +519,37 @@ class Sensors:
     voltage_noise_std_v: float = 0.0
     """[V] = 0: standard deviation of noise on each voltage reading."""
 
-    def validate(self) -> None:
-        """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
-        require_range(
-            "Sensors.position_filter_cutoff_hz",
-            self.position_filter_cutoff_hz,
+    _BOUNDS: ClassVar[tuple[Bound, ...]] = (
+        Bound(
+            ("position_filter_cutoff_hz",),
             0.0,
             1e6,
-            "Hz",
+            unit="Hz",
             why="0 disables the filter; a sensor filter is below 1 MHz",
-        )
-        require_range(
-            "Sensors.position_noise_std_m",
-            self.position_noise_std_m,
+        ),
+        Bound(
+            ("position_noise_std_m",),
             0.0,
             0.01,
-            "m",
+            unit="m",
             why="noise beyond 1 cm exceeds a wire actuator's whole stroke (mm for m?)",
-        )
-        require_range(
-            "Sensors.position_resolution_m",
-            self.position_resolution_m,
+        ),
+        Bound(
+            ("position_resolution_m",),
             0.0,
             0.01,
-            "m",
+            unit="m",
             why="a quantisation step beyond 1 cm exceeds a wire actuator's whole stroke",
-        )
-        require_range(
-            "Sensors.resistance_noise_std_ohm",
-            self.resistance_noise_std_ohm,
-            0.0,
-            100.0,
-            "ohm",
-            why="wires are ohms to about 100 ohm",
-        )
-        require_range(
-            "Sensors.current_noise_std_a",
-            self.current_noise_std_a,
-            0.0,
-            10.0,
-            "A",
-            why="wire currents are tens of mA to a few A",
-        )
-        require_range(
-            "Sensors.voltage_noise_std_v", self.voltage_noise_std_v, 0.0, 60.0, "V", why="the supply is at most 60 V"
-        )
+        ),
+        Bound(("resistance_noise_std_ohm",), 0.0, 100.0, unit="ohm", why="wires are ohms to about 100 ohm"),
+        Bound(("current_noise_std_a",), 0.0, 10.0, unit="A", why="wire currents are tens of mA to a few A"),
+        Bound(("voltage_noise_std_v",), 0.0, 60.0, unit="V", why="the supply is at most 60 V"),
+    )
+    """The physical range of each numeric field (checked by :meth:`validate`)."""
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
+        check_bounds(self, self._BOUNDS)
 
 
 @dataclass(frozen=True)

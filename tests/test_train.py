@@ -16,16 +16,16 @@ from sma_gym_agents.training import RunConfig, parse_args
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _run(*args: str, cwd: Path | None = None, timeout: float = 900) -> subprocess.CompletedProcess:
+    """Run ``python *args`` as a user would (output captured, the exit code not checked)."""
+    return subprocess.run(
+        [sys.executable, *args], check=False, capture_output=True, text=True, timeout=timeout, cwd=cwd
+    )
+
+
 def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
     out = tmp_path / "run"
-    proc = subprocess.run(
-        [sys.executable, str(ROOT / "train.py"), "--quick", "--no-progress", "--out", str(out)],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=900,
-        cwd=tmp_path,
-    )
+    proc = _run(str(ROOT / "train.py"), "--quick", "--no-progress", "--out", str(out), cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert f"run folder: {out}" in proc.stdout
     for name in ("best_model.zip", "best_model.json", "final_model.zip", "results.md", "goals.json", "run.json"):
@@ -58,58 +58,20 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
         assert env.action_space.contains(np.asarray(action, dtype=np.float32))
         obs, *_ = env.step(action)
     # sma-gym evaluate --policy scores it beside the baselines.
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "sma_gym.cli",
-            "evaluate",
-            "--policy",
-            str(out / "best_model.zip"),
-            "--experiments",
-            "6.1",
-            "--seeds",
-            "1",
-            "--baselines",
-            "PID",
-            "--json",
-        ],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=900,
-        cwd=tmp_path,
-    )
+    evaluate = ["-m", "sma_gym.cli", "evaluate", "--policy", str(out / "best_model.zip"), "--experiments", "6.1"]
+    proc = _run(*evaluate, "--seeds", "1", "--baselines", "PID", "--json", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-3000:]
     rows = json.loads(proc.stdout)
     assert any(r["policy"] == card["name"] and r["metric"] == "rms_error_m" and np.isfinite(r["value"]) for r in rows)
 
 
-def test_train_rejects_bad_options():
-    proc = subprocess.run(
-        [sys.executable, str(ROOT / "train.py"), "--env", "NoSuchEnv-v0"],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert proc.returncode == 2 and "NoSuchEnv-v0" in proc.stderr
-    proc = subprocess.run(
-        [sys.executable, str(ROOT / "train.py"), "--timesteps", "0"],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert proc.returncode == 2 and "timesteps" in proc.stderr
-    proc = subprocess.run(
-        [sys.executable, str(ROOT / "train.py"), "--threads", "0"],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert proc.returncode == 2 and "threads" in proc.stderr
+@pytest.mark.parametrize(
+    ("option", "named"),
+    [(["--env", "NoSuchEnv-v0"], "NoSuchEnv-v0"), (["--timesteps", "0"], "timesteps"), (["--threads", "0"], "threads")],
+)
+def test_train_rejects_bad_options(option, named):
+    proc = _run(str(ROOT / "train.py"), *option, timeout=120)
+    assert proc.returncode == 2 and named in proc.stderr
 
 
 def test_progress_lines_report_steps_rate_and_time_left():

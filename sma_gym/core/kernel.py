@@ -150,6 +150,10 @@ from sma_gym.physics.thermal import (
     exponential_euler,
     surroundings_temperature,
 )
+from sma_gym.physics.transformation import H_COOL, H_HEAT, H_WEIGHT, H_XI_NEW, H_XI_OLD, HYSTERON_ROWS
+
+NOISE_POSITION, NOISE_RESISTANCE, NOISE_CURRENT, NOISE_VOLTAGE = 0, 1, 2, 3
+"""Rows of ``advance``'s ``noise`` (and of one reading's ``noise4``)."""
 
 MIN_SUBSTEP_S = 1e-9
 """Slivers shorter than this (rounding at PWM edges) advance the clock without a step."""
@@ -200,7 +204,21 @@ def sensor_output(state, params, i):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, nodes1, u_star, n_nodes):
+def _convection(state, params, i, t_c):
+    """Actuator i's convection coefficient [W/(m^2 K)] at wire temperature ``t_c``."""
+    return convection_coefficient(
+        t_c,
+        params[i, P_H0],
+        params[i, P_H1],
+        params[i, P_H2],
+        state[i, S_T_SURR],
+        int(params[i, P_CONV_FORM]),
+        params[i, P_CONV_POWER_SCALE],
+    )
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _substep(state, params, i, h, energy_j, hyst, n_nodes):
     x0 = state[i, S_X]
     v0 = state[i, S_V]
     t0 = state[i, S_T]
@@ -213,15 +231,7 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
 
     # Heat in and convection out to the surroundings (exponential Euler, coefficient frozen
     # at T0).
-    h_conv = convection_coefficient(
-        t0,
-        params[i, P_H0],
-        params[i, P_H1],
-        params[i, P_H2],
-        t_surr,
-        int(params[i, P_CONV_FORM]),
-        params[i, P_CONV_POWER_SCALE],
-    )
+    h_conv = _convection(state, params, i, t0)
     t_pred = exponential_euler(t0, energy_j / h, h_conv * params[i, P_SURFACE], heat_cap, t_surr, h)
     e_conv = energy_j - heat_cap * (t_pred - t0)
     gain = params[i, P_SURR_GAIN]
@@ -256,7 +266,7 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
         params[i, P_LATENT_COOL],
     )
     for k in range(n_nodes):
-        nodes0[k] = state[i, S_XI_NODE0 + k]
+        hyst[H_XI_OLD, k] = state[i, S_XI_NODE0 + k]
 
     # Friction (coulomb_friction effect, set-valued at rest): try the stuck step first; if
     # holding needs more than static friction, slide with the kinetic force against the
@@ -272,22 +282,7 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
     s1 = 0.0
     t1 = t_pred
     for attempt in range(3):
-        z, x1, s1, t1 = solve_step(
-            stick,
-            x0,
-            t_pred,
-            z0,
-            k_ext,
-            b_ext - friction,
-            wire,
-            n_nodes,
-            shift_h,
-            shift_c,
-            weights,
-            nodes0,
-            nodes1,
-            u_star,
-        )
+        z, x1, s1, t1 = solve_step(stick, x0, t_pred, z0, k_ext, b_ext - friction, wire, hyst, n_nodes)
         if f_c <= 0.0:
             break
         if attempt == 0:
@@ -317,7 +312,7 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
     state[i, S_SIGMA] = s1
     state[i, S_XI] = z
     for k in range(n_nodes):
-        state[i, S_XI_NODE0 + k] = nodes1[k]
+        state[i, S_XI_NODE0 + k] = hyst[H_XI_NEW, k]
     state[i, S_E_ELECTRIC] += energy_j
     state[i, S_E_CONVECTED] += e_conv
     state[i, S_W_MECHANICAL] += work
@@ -354,17 +349,19 @@ def _substep(state, params, i, h, energy_j, shift_h, shift_c, weights, nodes0, n
 
 
 @njit(cache=True, error_model="numpy")
-def _take_readings(state, params, i, on_time, t_settle, n_pos, n_r, n_i, n_v):
-    """Sample position (always) and V, I, R (only if this pulse lasts past the settling)."""
-    value = sensor_output(state, params, i) + params[i, P_POS_NOISE] * n_pos
+def _take_readings(state, params, i, on_time, t_settle, noise4):
+    """Sample position (always) and V, I, R (only if this pulse lasts past the settling).
+
+    ``noise4``: this reading's standard normals, in the order of ``advance``'s ``noise``."""
+    value = sensor_output(state, params, i) + params[i, P_POS_NOISE] * noise4[NOISE_POSITION]
     state[i, S_POS_MEAS] = quantise(value, params[i, P_POS_RESOLUTION])
     if on_time > 0.0 and on_time >= t_settle and state[i, S_EOT_CUT] < 0.5:
         current = _on_current(state, params, i)
-        current_meas = current + params[i, P_I_NOISE] * n_i
-        voltage_meas = current * state[i, S_R_TRUE] + params[i, P_V_NOISE] * n_v
+        current_meas = current + params[i, P_I_NOISE] * noise4[NOISE_CURRENT]
+        voltage_meas = current * state[i, S_R_TRUE] + params[i, P_V_NOISE] * noise4[NOISE_VOLTAGE]
         state[i, S_I_MEAS] = current_meas
         state[i, S_V_MEAS] = voltage_meas
-        state[i, S_R_MEAS] = voltage_meas / current_meas + params[i, P_R_NOISE] * n_r
+        state[i, S_R_MEAS] = voltage_meas / current_meas + params[i, P_R_NOISE] * noise4[NOISE_RESISTANCE]
     else:
         state[i, S_I_MEAS] = np.nan
         state[i, S_V_MEAS] = np.nan
@@ -372,25 +369,7 @@ def _take_readings(state, params, i, on_time, t_settle, n_pos, n_r, n_i, n_v):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _control_step(
-    state,
-    params,
-    i,
-    duty_cmd,
-    dt,
-    n_pos,
-    n_r,
-    n_i,
-    n_v,
-    shift_h,
-    shift_c,
-    weights,
-    nodes0,
-    nodes1,
-    u_star,
-    n_nodes,
-    saved,
-):
+def _control_step(state, params, i, duty_cmd, dt, noise4, hyst, n_nodes, saved):
     duty = duty_cmd
     if duty < 0.0:
         duty = 0.0
@@ -426,7 +405,7 @@ def _control_step(
                 state[i, S_PWM_TAU] = tau
                 state[i, S_DUTY_LATCHED] = duty
                 state[i, S_PULSE_START] = state[i, S_PULSE_START_CMD] * period
-                _take_readings(state, params, i, duty * period, t_settle, n_pos, n_r, n_i, n_v)
+                _take_readings(state, params, i, duty * period, t_settle, noise4)
             # The pulse is [pulse_start, pulse_start + on_time) of the period: pulse_start is 0
             # on fixed slots (the slot is the phase-shifted period) and where the previous
             # actuators' pulses end on a shared budget. 0.0 + x == x, so fixed slots are
@@ -463,15 +442,7 @@ def _control_step(
         seg_edge = seg
         # Accuracy: the temperature may change by at most dt_max_k per sub-step.
         t_now = state[i, S_T]
-        h_conv = convection_coefficient(
-            t_now,
-            params[i, P_H0],
-            params[i, P_H1],
-            params[i, P_H2],
-            state[i, S_T_SURR],
-            int(params[i, P_CONV_FORM]),
-            params[i, P_CONV_POWER_SCALE],
-        )
+        h_conv = _convection(state, params, i, t_now)
         rate = abs(power - h_conv * params[i, P_SURFACE] * (t_now - state[i, S_T_SURR])) / heat_cap
         if rate * seg > dt_max_k:
             seg = dt_max_k / rate
@@ -515,7 +486,7 @@ def _control_step(
                     t_on = max(tau - pulse_start, 0.0)
                     energy = power * pulse_integral(t_on, t_on + seg, tau_rise, rise_form)
                 state[i, S_PWM_TAU] = tau + seg
-            _substep(state, params, i, seg, energy, shift_h, shift_c, weights, nodes0, nodes1, u_star, n_nodes)
+            _substep(state, params, i, seg, energy, hyst, n_nodes)
             if not watch or attempt == 1:
                 break
             x_start = saved[S_X]
@@ -541,7 +512,7 @@ def _control_step(
         if remaining > 0.0:
             state[i, S_PWM_TAU] += remaining  # keep the PWM clock exact
     else:
-        _take_readings(state, params, i, duty * period, t_settle, n_pos, n_r, n_i, n_v)
+        _take_readings(state, params, i, duty * period, t_settle, noise4)
 
     state[i, S_POWER] = (state[i, S_E_ELECTRIC] - e_start) / dt
     state[i, S_TIME] += dt
@@ -567,12 +538,8 @@ def advance(state, params, duty, dt, noise, record, record_fields):
     have_noise = noise.shape[0] > 0
     have_record = record.shape[0] > 0
     n_rec = record_fields.shape[0]
-    shift_h = np.empty(MAX_SPREAD_NODES)
-    shift_c = np.empty(MAX_SPREAD_NODES)
-    weights = np.empty(MAX_SPREAD_NODES)
-    nodes0 = np.empty(MAX_SPREAD_NODES)
-    nodes1 = np.empty(MAX_SPREAD_NODES)
-    u_star = np.empty(MAX_SPREAD_NODES)
+    hyst = np.empty((HYSTERON_ROWS, MAX_SPREAD_NODES))
+    noise4 = np.zeros(4)
     saved = np.empty(state.shape[1])
     # Each actuator's state and parameters are contiguous (actuator-major), so the loop streams
     # through memory once per step however many actuators there are.
@@ -580,37 +547,13 @@ def advance(state, params, duty, dt, noise, record, record_fields):
         for i in range(n):
             n_nodes = int(params[i, P_N_NODES])
             for k in range(n_nodes):
-                shift_h[k] = params[i, P_NODE_HEAT0 + k]
-                shift_c[k] = params[i, P_NODE_COOL0 + k]
-                weights[k] = params[i, P_NODE_WEIGHT0 + k]
-            n_pos = 0.0
-            n_r = 0.0
-            n_i = 0.0
-            n_v = 0.0
+                hyst[H_HEAT, k] = params[i, P_NODE_HEAT0 + k]
+                hyst[H_COOL, k] = params[i, P_NODE_COOL0 + k]
+                hyst[H_WEIGHT, k] = params[i, P_NODE_WEIGHT0 + k]
             if have_noise:
-                n_pos = noise[s, 0, i]
-                n_r = noise[s, 1, i]
-                n_i = noise[s, 2, i]
-                n_v = noise[s, 3, i]
-            _control_step(
-                state,
-                params,
-                i,
-                duty[s, i],
-                dt,
-                n_pos,
-                n_r,
-                n_i,
-                n_v,
-                shift_h,
-                shift_c,
-                weights,
-                nodes0,
-                nodes1,
-                u_star,
-                n_nodes,
-                saved,
-            )
+                for r in range(4):
+                    noise4[r] = noise[s, r, i]
+            _control_step(state, params, i, duty[s, i], dt, noise4, hyst, n_nodes, saved)
             if have_record:
                 for j in range(n_rec):
                     record[s, j, i] = state[i, record_fields[j]]

@@ -8,6 +8,8 @@ that the native vector env (:mod:`sma_gym.envs.vector`) uses too.
 
 from __future__ import annotations
 
+import inspect
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -67,6 +69,36 @@ def reject_unknown(unknown: dict[str, Any], accepted: tuple[str, ...]) -> None:
     if name == "pwm_mode":
         raise ValueError("pwm_mode: the multiplexed env is always PWM-resolved")
     raise ValueError(f"unknown env kwargs {sorted(unknown)}: expected some of {list(accepted)}")
+
+
+def keyword_settings(init: Callable[..., Any], exclude: tuple[str, ...] = ()) -> dict[str, inspect.Parameter]:
+    """The keyword-only settings of an env constructor (names, defaults, annotations), by name.
+
+    Their one definition is the signature of :class:`SMAEnv` (and, adding the conditions,
+    :class:`SMARobustEnv`); the other envs take them as ``**settings`` (:func:`with_settings`)
+    and show them in their signatures (:func:`spell_out_settings`), so a setting added there
+    reaches every env.
+    """
+    params = inspect.signature(init).parameters.values()
+    return {p.name: p for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY and p.name not in exclude}
+
+
+def with_settings(
+    arguments: dict[str, Any], shared: dict[str, inspect.Parameter], given: dict[str, Any]
+) -> dict[str, Any]:
+    """For :meth:`Settings.from_arguments`: the constructor's own ``arguments`` (its
+    ``locals()``), each ``shared`` setting as ``given`` or its default, and what is left of
+    ``given`` as ``unknown``."""
+    rest = dict(given)
+    own = {k: v for k, v in arguments.items() if k not in ("self", "__class__", "settings")}
+    return {**own, **{name: rest.pop(name, p.default) for name, p in shared.items()}, "unknown": rest}
+
+
+def spell_out_settings(init: Callable[..., Any], shared: dict[str, inspect.Parameter]) -> None:
+    """Show ``shared`` in ``init``'s signature in place of its ``**settings`` (for
+    ``help()``, IDEs and :func:`inspect.signature`)."""
+    own = [p for p in inspect.signature(init).parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
+    init.__signature__ = inspect.Signature([*own, *shared.values()])  # type: ignore[attr-defined]
 
 
 @dataclass(frozen=True)
@@ -377,18 +409,18 @@ class SMARobustEnv(SMAEnv):
         self,
         render_mode: str | None = None,
         *,
-        model: ModelSpec = None,
-        control_period_s: float = DEFAULT_CONTROL_PERIOD_S,
-        reference: ReferenceSpec = DEFAULT_REFERENCE,
-        energy_weight: float = DEFAULT_ENERGY_WEIGHT,
-        overheat_limit_c: float = DEFAULT_OVERHEAT_C,
-        pwm_mode: str = DEFAULT_PWM_MODE,
-        position_noise_std_m: float | None = None,
-        resistance_noise_std_ohm: float | None = None,
         supply_voltage_v: Range | None = None,
         convection: str | None = None,
         wire_diameter_m: Range | None = None,
         spread: float | None = None,
-        **unknown: Any,
+        **settings: Any,
     ):
-        self._setup(Settings.from_arguments(self.variant, locals()), render_mode)
+        # The settings of SMAEnv (model, reference, ...): one definition, spelled out below.
+        arguments = with_settings(locals(), SINGLE_SETTINGS, settings)
+        self._setup(Settings.from_arguments(self.variant, arguments), render_mode)
+
+
+SINGLE_SETTINGS = keyword_settings(SMAEnv.__init__)
+"""The single envs' settings (``model``, ``control_period_s``, ``reference``, ...)."""
+
+spell_out_settings(SMARobustEnv.__init__, SINGLE_SETTINGS)

@@ -222,19 +222,6 @@ class TaskState:
         self.held[i] = (r_cold, v / r_cold, v)
         self.last_duty[i] = 0.0
 
-    def evaluate(
-        self,
-        sim: Simulator,
-        actuators: np.ndarray,
-        obs_out: np.ndarray,
-        reward_out: np.ndarray,
-        term_out: np.ndarray,
-        ref_out: np.ndarray,
-    ) -> None:
-        """Fill observations, rewards, termination flags and references (entry j for
-        actuator ``actuators[j]``, an int64 array)."""
-        self.bind(sim, actuators, obs_out, reward_out, term_out, ref_out)()
-
     def bind(
         self,
         sim: Simulator,
@@ -244,8 +231,10 @@ class TaskState:
         term_out: np.ndarray,
         ref_out: np.ndarray,
     ) -> Callable[[], None]:
-        """:meth:`evaluate` with these arguments, as a call without arguments (an env step
-        makes it every time; the arrays are updated in place, never replaced)."""
+        """A call without arguments that fills observations, rewards, termination flags and
+        references (entry j for actuator ``actuators[j]``, an int64 array). An env step makes
+        it every time (the arrays are updated in place, never replaced); a one-off use is
+        ``bind(...)()``."""
         return partial(
             task_outputs,
             sim.state,
@@ -327,34 +316,16 @@ def task_outputs(
         x_meas = s[L.S_POS_MEAS] / stroke
         rn = r / stroke
         res = 10.0 * (held[i, 0] / r_cold - 1.0)
+        # The reference, its preview and the last duty: the same in both observations.
+        task_feats = (rn, rate / stroke, r1 / stroke, r2 / stroke, r3 / stroke, last_duty[i])
         if observation == OBS_POSITION:
-            feats = (
-                x_meas,
-                res,
-                valid,
-                rn,
-                rate / stroke,
-                r1 / stroke,
-                r2 / stroke,
-                r3 / stroke,
-                last_duty[i],
-                rn - x_meas,
-            )
+            feats = (x_meas, res, valid) + task_feats + (rn - x_meas,)
             lows = _LOWS_POSITION
             highs = _HIGHS_POSITION
         else:
-            feats = (
-                res,
-                valid,
-                10.0 * (held[i, 1] / i_cold - 1.0),
-                10.0 * (held[i, 2] / v_supply - 1.0),
-                rn,
-                rate / stroke,
-                r1 / stroke,
-                r2 / stroke,
-                r3 / stroke,
-                last_duty[i],
-            )
+            i_feat = 10.0 * (held[i, 1] / i_cold - 1.0)
+            v_feat = 10.0 * (held[i, 2] / v_supply - 1.0)
+            feats = (res, valid, i_feat, v_feat) + task_feats
             lows = _LOWS_SELF_SENSING
             highs = _HIGHS_SELF_SENSING
         for k in range(len(feats)):

@@ -22,19 +22,15 @@ from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs.conditions import CONDITION_INFO, CONDITION_INFO_KEYS, condition_info
 from sma_gym.envs.render import EpisodeHistory, EpisodePlot
 from sma_gym.envs.single import (
-    DEFAULT_CONTROL_PERIOD_S,
-    DEFAULT_ENERGY_WEIGHT,
-    DEFAULT_OVERHEAT_C,
-    DEFAULT_PWM_MODE,
-    DEFAULT_REFERENCE,
     TRACKING,
-    Range,
-    ReferenceSpec,
     Settings,
+    SMARobustEnv,
     Variant,
+    keyword_settings,
     reset_actuator,
+    spell_out_settings,
+    with_settings,
 )
-from sma_gym.model import ModelSpec
 from sma_gym.simulator import Simulator
 
 _MODES = {mode.value: mode for mode in AutoresetMode}
@@ -156,22 +152,10 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         max_episode_steps: int | None = None,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         render_mode: str | None = None,
-        *,
-        model: ModelSpec = None,
-        control_period_s: float = DEFAULT_CONTROL_PERIOD_S,
-        reference: ReferenceSpec = DEFAULT_REFERENCE,
-        energy_weight: float = DEFAULT_ENERGY_WEIGHT,
-        overheat_limit_c: float = DEFAULT_OVERHEAT_C,
-        pwm_mode: str = DEFAULT_PWM_MODE,
-        position_noise_std_m: float | None = None,
-        resistance_noise_std_ohm: float | None = None,
-        supply_voltage_v: Range | None = None,
-        convection: str | None = None,
-        wire_diameter_m: Range | None = None,
-        spread: float | None = None,
-        **unknown: Any,
+        **settings: Any,
     ):
-        arguments = dict(locals())
+        # The single envs' settings, conditions included (one definition, spelled out below).
+        arguments = with_settings(locals(), VECTOR_SETTINGS, settings)
         self.num_envs = require_int_range("num_envs", num_envs, 1, 1 << 20)
         if max_episode_steps is not None:
             max_episode_steps = require_int_range("max_episode_steps", max_episode_steps, 1, 1 << 40)
@@ -362,7 +346,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             k = len(envs)
             obs = np.zeros((k, self._obs.shape[1]), dtype=np.float32)
             rew, term, ref = np.zeros(k), np.zeros(k, dtype=np.bool_), np.zeros(k)
-        self.task.evaluate(self.sim, envs, obs, rew, term, ref)
+        self.task.bind(self.sim, envs, obs, rew, term, ref)()
         if len(envs) != self.num_envs:
             self._obs[envs] = obs
             self._ref[envs] = ref
@@ -403,3 +387,10 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
 
     def close_extras(self, **kwargs: Any) -> None:
         self._plot = None
+
+
+VECTOR_SETTINGS = keyword_settings(SMARobustEnv.__init__)
+"""Every single env's settings, the robustness conditions included (a condition kwarg for a
+variant that does not randomise is refused by :meth:`Settings.from_arguments`)."""
+
+spell_out_settings(SMAVectorEnv.__init__, VECTOR_SETTINGS)

@@ -37,7 +37,17 @@ import math
 from typing import NamedTuple
 
 from sma_gym._jit import njit
-from sma_gym.physics.transformation import cosine_fraction, cosine_fraction_inverse, cosine_fraction_slope
+from sma_gym.physics.transformation import (
+    H_COOL,
+    H_HEAT,
+    H_U_STAR,
+    H_WEIGHT,
+    H_XI_NEW,
+    H_XI_OLD,
+    cosine_fraction,
+    cosine_fraction_inverse,
+    cosine_fraction_slope,
+)
 
 
 class WireConstants(NamedTuple):
@@ -89,10 +99,8 @@ def kinetic_friction(f_c, velocity, form):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _evaluate(
-    z, stick, x0, t_pred, z0, k_ext, b_ext, wire, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out, u_star
-):
-    """Z(z) and dZ/dz for a trial mean martensite fraction z; fills xi_nodes_out.
+def _evaluate(z, stick, x0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes):
+    """Z(z) and dZ/dz for a trial mean martensite fraction z; fills ``hyst[H_XI_NEW]``.
 
     Returns (Z, dZ, x1, sigma1, t1).
     """
@@ -124,6 +132,12 @@ def _evaluate(
     du_c = (lam - dsigma / c_m) * inv_c
     big_z = 0.0
     dbig_z = 0.0
+    shift_h = hyst[H_HEAT]
+    shift_c = hyst[H_COOL]
+    weights = hyst[H_WEIGHT]
+    xi_nodes0 = hyst[H_XI_OLD]
+    xi_nodes_out = hyst[H_XI_NEW]
+    u_star = hyst[H_U_STAR]
     for k in range(n_nodes):
         u_h = (t1 - shift_h[k] - a_s - sigma1 / c_a) * inv_h
         u_c = (t1 - shift_c[k] - m_f - sigma1 / c_m) * inv_c
@@ -145,21 +159,20 @@ def _evaluate(
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def solve_step(
-    stick, x0, t_pred, z0, k_ext, b_ext, wire, n_nodes, shift_h, shift_c, weights, xi_nodes0, xi_nodes_out, u_star
-):
-    """One implicit step: returns (z, x1, sigma1, t1) and fills ``xi_nodes_out``.
+def solve_step(stick, x0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes):
+    """One implicit step: returns (z, x1, sigma1, t1) and fills ``hyst[H_XI_NEW]``.
 
     ``k_ext`` and ``b_ext`` hold the backward-Euler mechanics: the new position solves
     k_ext x1 = b_ext + A sigma(x1, z) unless ``stick`` (then x1 = x0). ``wire`` holds the
-    wire's constants (:class:`WireConstants`); the hysterons are ``n_nodes`` entries of
-    ``shift_h``, ``shift_c``, ``weights`` with their old fractions ``xi_nodes0``.
+    wire's constants (:class:`WireConstants`); the hysterons are the first ``n_nodes``
+    columns of the workspace ``hyst`` (:data:`HYSTERON_ROWS`): their shifts and weights,
+    and their old fractions in row ``H_XI_OLD``.
     """
     # r(z) = z - Z(z) is increasing with slope >= 1, and r(Z(z0)) has the opposite sign of
     # r(z0): the first evaluation at z0 brackets the root. Newton steps, bisection if a step
     # leaves the bracket. (One evaluation site, so the compiled code inlines it once.)
     for k in range(n_nodes):
-        u_star[k] = cosine_fraction_inverse(xi_nodes0[k])
+        hyst[H_U_STAR, k] = cosine_fraction_inverse(hyst[H_XI_OLD, k])
     z = z0
     lo = 0.0
     hi = 1.0
@@ -167,23 +180,7 @@ def solve_step(
     sigma1 = 0.0
     t1 = t_pred
     for it in range(80):
-        big_z, dbig_z, x1, sigma1, t1 = _evaluate(
-            z,
-            stick,
-            x0,
-            t_pred,
-            z0,
-            k_ext,
-            b_ext,
-            wire,
-            n_nodes,
-            shift_h,
-            shift_c,
-            weights,
-            xi_nodes0,
-            xi_nodes_out,
-            u_star,
-        )
+        big_z, dbig_z, x1, sigma1, t1 = _evaluate(z, stick, x0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes)
         r = z - big_z
         if it == 0:
             if r == 0.0:

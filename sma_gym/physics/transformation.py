@@ -92,6 +92,24 @@ MINOR_LOOP_LAWS = ("preisach", "play")
 _WIDTH_RANK_7 = (3, 6, 0, 2, 5, 1, 4)
 
 
+# The hysteron workspace of the compiled step: one row per quantity, one column per
+# hysteron (up to layout.MAX_SPREAD_NODES), so the step passes one array, not six.
+H_HEAT = 0
+"""Row: each hysteron's heating-branch shift (K), from :func:`hysteron_nodes`."""
+H_COOL = 1
+"""Row: each hysteron's cooling-branch shift (K)."""
+H_WEIGHT = 2
+"""Row: each hysteron's weight (they sum to 1)."""
+H_XI_OLD = 3
+"""Row: each hysteron's martensite fraction at the start of the step."""
+H_XI_NEW = 4
+"""Row: each hysteron's martensite fraction at the end of the step (filled by the solver)."""
+H_U_STAR = 5
+"""Row: scratch, the branch coordinate at which each hysteron's old fraction lies."""
+HYSTERON_ROWS = 6
+"""Rows of the hysteron workspace."""
+
+
 def hysteron_nodes(
     spread_k: float,
     width_spread: float,
