@@ -6,7 +6,6 @@ docstring of :class:`SMAMultiplexedEnv`.
 
 from __future__ import annotations
 
-import inspect
 from typing import Any
 
 import gymnasium as gym
@@ -18,7 +17,7 @@ from sma_gym.electrical.multiplexer import SCHEMES, Multiplexer
 from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs import references as refs
 from sma_gym.envs.render import EpisodeRendering
-from sma_gym.envs.single import TRACKING, Settings, SMAEnv
+from sma_gym.envs.single import TRACKING, Settings, SMAEnv, keyword_settings, spell_out_settings, with_settings
 from sma_gym.simulator import Simulator
 
 DEFAULT_N_ACTUATORS = 4
@@ -28,17 +27,9 @@ DEFAULT_SCHEME = "fixed_slots"
 """The report's scheme (§9.1): each actuator owns a 1/n slot of the cycle."""
 
 
-def _shared_settings() -> dict[str, inspect.Parameter]:
-    """The single envs' keyword-only settings (``model``, ``reference``, ...), minus ``pwm_mode``.
-
-    One definition of their names and defaults: the multiplexed env takes them as ``**settings``
-    and shows them in its signature, so a setting added to the single envs reaches it too.
-    """
-    params = inspect.signature(SMAEnv.__init__).parameters.values()
-    return {p.name: p for p in params if p.kind is inspect.Parameter.KEYWORD_ONLY and p.name != "pwm_mode"}
-
-
-_SETTINGS = _shared_settings()
+_SETTINGS = keyword_settings(SMAEnv.__init__, exclude=("pwm_mode",))
+"""The single envs' settings (``model``, ``reference``, ...) but ``pwm_mode`` (always resolved
+here): taken as ``**settings`` and shown in the signature, so one added there reaches this env."""
 
 
 class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
@@ -121,12 +112,10 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         scheme: str = DEFAULT_SCHEME,
         **settings: Any,
     ):
+        arguments = with_settings(locals(), _SETTINGS, settings)
         self.n = require_int_range("n_actuators", n_actuators, 1, 16)
         f = require_range("cycling_frequency_hz", cycling_frequency_hz, 100.0, 4000.0, "Hz")
         self.scheme = require_choice("scheme", scheme, SCHEMES)
-        known = {name: settings.pop(name, p.default) for name, p in _SETTINGS.items()}
-        arguments = {"n_actuators": n_actuators, "cycling_frequency_hz": f, "render_mode": render_mode}
-        arguments.update(scheme=scheme, **known, unknown=settings)
         # PWM-resolved always: each actuator conducts only where the driver puts its pulse.
         self.settings = Settings.from_arguments(TRACKING, arguments, pwm_mode="resolved")
         self._init_rendering(render_mode, self.settings.control_period_s)
@@ -228,10 +217,4 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         return [str(j) for j in range(self.n)]
 
 
-def _signature() -> inspect.Signature:
-    """The constructor's signature with the shared settings spelled out (for help() and IDEs)."""
-    own = list(inspect.signature(SMAMultiplexedEnv.__init__).parameters.values())[:-1]
-    return inspect.Signature([*own, *_SETTINGS.values()])
-
-
-SMAMultiplexedEnv.__init__.__signature__ = _signature()  # type: ignore[attr-defined]
+spell_out_settings(SMAMultiplexedEnv.__init__, _SETTINGS)
