@@ -21,6 +21,16 @@ reference and rate):
 
 Batches of banks (vector envs) work as in :class:`~sma_gym_agents.policies.ControllerPolicy`;
 the budget is shared within each bank, never across banks.
+
+Agents that scale with n (one policy for any bank of 1 to 16): parameter sharing.
+:class:`BankView` turns a bank's observation into one row per actuator: that actuator's own
+features plus :data:`CONTEXT_FEATURES`, a few bank-level numbers that do not grow with n.
+:class:`BankVecEnv` makes every actuator of every bank one sub-env of a stable-baselines3
+VecEnv (its own reward, the tracking term of its actuator), so one SAC policy learns to act
+for each actuator; :class:`BankAgent` runs such a model on a bank of any size. Training:
+``python train.py --env SMAMultiplexed-v0`` (the hyperparameter file's ``vec_env_wrapper``,
+:class:`sma_gym_agents.training.envs.BankVecEnv`: every actuator of every bank one sub-env
+of a stable-baselines3 VecEnv, its reward that actuator's own tracking term).
 """
 
 from __future__ import annotations
@@ -28,8 +38,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 
 from sma_gym.electrical.multiplexer import scale_to_budget
+from sma_gym.envs import task
 from sma_gym_agents.controllers import ControllerSpec
 from sma_gym_agents.policies import ControllerPolicy, env_attr
 
@@ -74,3 +86,87 @@ def bank_policy(spec: ControllerSpec | str, env: Any) -> ControllerPolicy:
     if env_attr(env, "scheme") == "shared_budget":
         return BudgetAllocator(spec, env)
     return FixedSlotBank(spec, env)
+
+
+# --------------------------------------------------------------------------------------
+# Agents that scale with n: one policy per actuator, shared by all
+# --------------------------------------------------------------------------------------
+MAX_ACTUATORS = 16
+"""The multiplexed env's largest bank (its ``n_actuators`` range)."""
+BANK_FEATURES = task.FEATURES[task.OBS_POSITION]
+"""Each actuator's own features in a bank's observation (the multiplexed env's)."""
+CONTEXT_FEATURES = ("bank_size", "duty_cap", "others_duty", "shared_budget")
+"""Bank-level features appended to each actuator's own: n / 16; the largest duty one actuator
+may get (1/n on fixed slots, 1 on a shared budget); the duty the other actuators were
+applied in the last step, summed (fraction of the cycle: what they took of the budget);
+1 on a shared budget, 0 on fixed slots. None grows with n."""
+_CONTEXT_LOW = np.zeros(len(CONTEXT_FEATURES), dtype=np.float32)
+_CONTEXT_HIGH = np.array([1.0, 1.0, float(MAX_ACTUATORS), 1.0], dtype=np.float32)
+
+
+class BankView:
+    """A bank's observation as one row per actuator: own features, then :data:`CONTEXT_FEATURES`."""
+
+    def __init__(self, scheme: str):
+        if scheme not in ("fixed_slots", "shared_budget"):
+            raise ValueError(f"scheme = {scheme!r}: expected 'fixed_slots' or 'shared_budget'")
+        self.scheme = scheme
+        self.k = len(BANK_FEATURES)
+        self._duty = BANK_FEATURES.index("last_duty")
+
+    @staticmethod
+    def observation_space() -> spaces.Box:
+        """The per-actuator observation space (the same for every n)."""
+        low, high = task.bounds(task.OBS_POSITION)
+        return spaces.Box(
+            np.concatenate([low, _CONTEXT_LOW]).astype(np.float32),
+            np.concatenate([high, _CONTEXT_HIGH]).astype(np.float32),
+            dtype=np.float32,
+        )
+
+    def n_of(self, observation: np.ndarray) -> int:
+        """The bank size of an observation (its width / the features per actuator)."""
+        width = np.shape(observation)[-1]
+        if width % self.k or not 1 <= width // self.k <= MAX_ACTUATORS:
+            raise ValueError(
+                f"bank observation of width {width}: expected n * {self.k} features for n in 1..{MAX_ACTUATORS}"
+            )
+        return width // self.k
+
+    def rows(self, observation: np.ndarray) -> np.ndarray:
+        """(batch * n, k + 4) float32 rows, actuator-major within each bank, for (batch, n * k) or (n * k,)."""
+        obs = np.asarray(observation, dtype=np.float32)
+        n = self.n_of(obs)
+        own = obs.reshape(-1, n, self.k)
+        duty = own[:, :, self._duty]
+        context = np.empty(own.shape[:2] + (len(CONTEXT_FEATURES),), dtype=np.float32)
+        shared = self.scheme == "shared_budget"
+        context[:, :, 0] = n / MAX_ACTUATORS
+        context[:, :, 1] = 1.0 if shared else 1.0 / n
+        context[:, :, 2] = duty.sum(axis=1, keepdims=True) - duty
+        context[:, :, 3] = 1.0 if shared else 0.0
+        return np.concatenate([own, context], axis=2).reshape(-1, self.k + len(CONTEXT_FEATURES))
+
+
+class BankAgent:
+    """A per-actuator model (trained on :class:`BankVecEnv`) acting for a whole bank of any n.
+
+    ``predict`` takes a bank's observation (n * 10,) or a batch (batch, n * 10) and returns
+    the bank's action (n,) or (batch, n), every actuator's entry from the same model.
+    """
+
+    def __init__(self, model: Any, scheme: str, name: str = "bank agent"):
+        self.model = model
+        self.view = BankView(scheme)
+        self.name = name
+
+    def reset(self) -> None:
+        """Nothing to forget: the model is memoryless (kept for the harness's interface)."""
+
+    def predict(self, observation: Any, state: Any = None, episode_start: Any = None, deterministic: bool = True):
+        obs = np.asarray(observation, dtype=np.float32)
+        single = obs.ndim == 1
+        n = self.view.n_of(obs)
+        action, _ = self.model.predict(self.view.rows(obs), deterministic=deterministic)
+        action = np.asarray(action, dtype=np.float32).reshape(-1, n)
+        return (action[0] if single else action), None

@@ -36,7 +36,7 @@ CARD_SUFFIX = ".json"
 CARD_ALGOS = ("SAC", "PPO", "TD3")
 """Algorithms a card may name (stable-baselines3 class names)."""
 
-CARD_ENV_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0")
+CARD_ENV_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0", "SMAMultiplexed-v0")
 """Env ids a card may name: those train.py trains on and ``sma-gym evaluate`` scores (an agent
 of any other id would be silently left out of every table)."""
 

@@ -95,6 +95,8 @@ CHAPTER_9_STEP_M = 3e-3
 CHAPTER_9_SECONDS = {1: 4.0, 8: 10.0, 16: 25.0}
 CHAPTER_9_COUNTS = ((1, 10.0), (8, 10.0), (16, 10.0), (16, 15.0), (16, 20.0), (1, 20.0), (8, 20.0))
 CHAPTER_9_FREQUENCIES = (100.0, 500.0, 1000.0, 2000.0, 3000.0, 4000.0)
+BANK_BASELINE_SPECS = (PID, with_feedforward(VSC3), VSC4, with_feedforward(VSC4))
+"""The report's controllers a bank agent is compared with, per actuator (the best one counts)."""
 BANK_STEP_N = 16
 BANK_STEP_VOLTAGE_V = 10.0
 BANK_STEP_LEVEL_M = 8e-3
@@ -715,6 +717,101 @@ def run_bank_step(entries: Sequence[PolicyEntry], results: Results, seeds: Seque
         results.records += _records("9 bank", entry.name, label, "bank step 0 -> 8 mm, others hold", metrics)
 
 
+BANK_TRACKING_SECONDS = 10.0
+"""One training episode (1000 steps of 10 ms)."""
+BANK_TRACKING_KINDS = ("step", "sine", "random", "hold")
+"""Actuator j of a tracking bank gets kind j mod 4; ``hold``: a step at 0 s to a random level."""
+BANK_TRACKING_SEED = 20_000
+"""First seed of the bank-tracking references (training and validation draw below it)."""
+
+
+def bank_tracking_references(n: int, seed: int, stroke_m: float) -> list[dict[str, Any]]:
+    """Independent references for a bank of n: kinds :data:`BANK_TRACKING_KINDS` in turn,
+    parameters drawn from ``BANK_TRACKING_SEED + seed`` within the stroke."""
+    from sma_gym.envs import references as refs
+
+    rng = np.random.default_rng(BANK_TRACKING_SEED + seed)
+    out = []
+    for j in range(n):
+        kind = BANK_TRACKING_KINDS[j % len(BANK_TRACKING_KINDS)]
+        if kind == "hold":
+            out.append({"kind": "step", "t1_s": 0.0, "level1_m": float(rng.uniform(0.1, 0.9) * stroke_m)})
+            continue
+        spec = refs.draw(kind, rng, stroke_m).describe()
+        spec.pop("name", None)
+        out.append(spec)
+    return out
+
+
+def bank_tracking(
+    entry: PolicyEntry, n: int, scheme: str, seed: int = 0, noise_m: float = EVAL_NOISE_M
+) -> dict[str, float]:
+    """RMS tracking error [m] of a bank of n on independent references
+    (:func:`bank_tracking_references`), over all its actuators and :data:`BANK_TRACKING_SECONDS`,
+    on the true positions; the bank's total electrical energy [J]."""
+    import gymnasium as gym
+
+    import sma_gym  # noqa: F401  (registers the ids)
+
+    kwargs = {**entry.env_kwargs, "n_actuators": n, "scheme": scheme, "position_noise_std_m": noise_m}
+    env = gym.make("sma_gym:" + entry.env_id, max_episode_steps=None, **kwargs).unwrapped
+    policy = entry.make(env)
+    if hasattr(policy, "reset"):
+        policy.reset()
+    references = bank_tracking_references(n, seed, float(env.position_scale_m))
+    obs, _ = env.reset(seed=seed, options={"references": references})
+    squared = 0.0
+    steps = int(round(BANK_TRACKING_SECONDS / env.control_period_s))
+    for k in range(steps):
+        action, _ = policy.predict(obs, episode_start=np.array([k == 0]), deterministic=True)
+        obs, _, terminated, _, info = env.step(action)
+        if terminated:
+            raise RuntimeError(
+                f"{entry.name}: the bank-tracking episode ended early (overheated?) at t = {info['time_s']} s"
+            )
+        squared += float(np.mean((info["reference_m"] - env.sim.position_m) ** 2))
+    energy = float(np.sum(env.sim.electrical_energy_j))
+    env.close()
+    return {"rms_error_m": math.sqrt(squared / steps), "energy_j": energy}
+
+
+def bank_tracking_label(n: int, scheme: str) -> str:
+    return f"{n} actuators, {scheme.replace('_', ' ')}"
+
+
+def run_bank_tracking(
+    entries: Sequence[PolicyEntry],
+    results: Results,
+    n: int,
+    scheme: str,
+    seeds: Sequence[int] = DEFAULT_SEEDS,
+) -> None:
+    """Bank tracking on independent references (issue 16) for bank baselines and agents, over
+    ``seeds``; records under experiment ``"9 bank tracking"``, reference ``"independent"``."""
+    for entry in entries:
+        runs = [bank_tracking(entry, n, scheme, seed=int(seed)) for seed in seeds]
+        metrics = {key: np.array([run[key] for run in runs]) for key in runs[0]}
+        results.records += _records(
+            "9 bank tracking", entry.name, bank_tracking_label(n, scheme), "independent", metrics
+        )
+
+
+def bank_agent_entry(agent: AgentPolicy) -> PolicyEntry:
+    """A bank agent (trained on ``SMAMultiplexed-v0``) as an entry: one model acting for every
+    actuator (:class:`sma_gym_agents.bank.BankAgent`), at the control period it trained with."""
+    from sma_gym_agents.bank import BankAgent
+
+    kwargs = {k: v for k, v in agent.env_kwargs.items() if k in ("control_period_s", "energy_weight", "scheme")}
+    scheme = str(agent.env_kwargs.get("scheme", "fixed_slots"))
+    return PolicyEntry(
+        agent.name,
+        lambda env, a=agent, s=scheme: BankAgent(a.model, s, a.name),
+        env_id="SMAMultiplexed-v0",
+        env_kwargs=kwargs,
+        kind="agent",
+    )
+
+
 def default_entries(self_sensing: bool = False) -> list[PolicyEntry]:
     entries = [baseline(s) for s in ALL_SPECS]
     if self_sensing:
@@ -737,7 +834,8 @@ def evaluate(
         if e not in EXPERIMENTS:
             raise ValueError(f"experiment = {e!r}: expected one of {', '.join(EXPERIMENTS)}")
     results = Results()
-    agent_entries = [agent_entry(a) for a in agents]
+    agent_entries = [agent_entry(a) for a in agents if a.env_id != "SMAMultiplexed-v0"]
+    bank_agents = [bank_agent_entry(a) for a in agents if a.env_id == "SMAMultiplexed-v0"]
     tracking_agents = [a for a in agent_entries if a.env_id == "SMATracking-v0"]
     sensing_agents = [a for a in agent_entries if a.env_id == "SMASelfSensing-v0"]
     base = list(baselines) if baselines is not None else default_entries()
@@ -754,6 +852,12 @@ def evaluate(
         banks = [bank_entry(PID, "fixed_slots"), bank_entry(PID, "shared_budget")]
         run_chapter_9(chosen + ([banks[1]] if baselines is None else []), results)
         run_bank_step(banks, results)
+        for agent in bank_agents:
+            # Each bank agent beside the bank baselines of its own scheme, at the n it trained with.
+            scheme = agent.env_kwargs.get("scheme", "fixed_slots")
+            n = int(next(a for a in agents if a.name == agent.name).env_kwargs.get("n_actuators", 4))
+            pool = [bank_entry(s, scheme) for s in BANK_BASELINE_SPECS]
+            run_bank_tracking(pool + [agent], results, n, scheme, seeds)
     if "self-sensing" in experiments:
         # The report's self-sensing setup (§4.2): a fan; compared with the same controllers
         # reading the position sensor under the same conditions.

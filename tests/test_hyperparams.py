@@ -91,8 +91,10 @@ def test_every_entry_resolves_to_importable_callables_and_valid_values(algo, env
     venv = make_vec_env(lambda **kw: gym.make(env_id, **kw), n_envs=2, seed=0, env_kwargs=hp.get("env_kwargs", {}))
     venv = zoo_wrap(venv, hp.get("vec_env_wrapper"))
     obs = venv.reset()
-    assert obs.shape == (2, *venv.observation_space.shape) and np.all(np.isfinite(obs))
-    venv.step(np.zeros((2, *venv.action_space.shape), dtype=np.float32))
+    # 2 envs, or 2 banks of n actuators, each actuator a sub-env (BankVecEnv)
+    assert venv.num_envs == 2 * hp.get("env_kwargs", {}).get("n_actuators", 1) if "Multiplexed" in env_id else 2
+    assert obs.shape == (venv.num_envs, *venv.observation_space.shape) and np.all(np.isfinite(obs))
+    venv.step(np.zeros((venv.num_envs, *venv.action_space.shape), dtype=np.float32))
     venv.close()
 
 
@@ -193,7 +195,7 @@ def test_the_zoo_preprocesses_every_entry(tmp_path):
         hyperparams, _ = manager.read_hyperparameters()
         kwargs, env_wrapper, callbacks, vec_env_wrapper = manager._preprocess_hyperparams(hyperparams)
         assert env_wrapper is None and callbacks == []
-        assert (vec_env_wrapper is not None) == (env_id != "SMAMultiplexed-v0")
+        assert vec_env_wrapper is not None  # the bank's too: BankVecEnv
         assert "eval_freq" not in kwargs and "vec_env_wrapper" not in kwargs and "env_kwargs" not in kwargs
         assert manager.n_envs == entry(algo, env_id)["n_envs"] and manager.frame_stack is None
         assert manager.env_kwargs == entry(algo, env_id).get("env_kwargs", {})

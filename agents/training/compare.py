@@ -16,11 +16,16 @@ from typing import Any
 
 from sma_gym_agents.controllers import ALL_SPECS, PID, VSC3, with_feedforward
 from sma_gym_agents.evaluation import (
+    BANK_BASELINE_SPECS,
     CHAPTER_7_CONDITIONS,
     PolicyEntry,
     Results,
     agent_entry,
+    bank_agent_entry,
+    bank_entry,
+    bank_tracking_label,
     baseline,
+    run_bank_tracking,
     run_chapter_7,
     run_table_6_1,
 )
@@ -29,6 +34,9 @@ from sma_gym_agents.trained import load_policy
 from sma_gym_agents.training.config import RunConfig
 
 TRACKING, SELF_SENSING, ROBUST = "SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0"
+BANK, BANK_SHARED = "SMAMultiplexed-v0", "SMAMultiplexed-v0 shared_budget"
+"""The bank's goals depend on its scheme: :data:`GOALS` has one entry per scheme (see :func:`goal_key`)."""
+BANK_ALLOCATOR_FACTOR = 0.7
 
 
 @dataclass(frozen=True)
@@ -91,8 +99,24 @@ GOALS: dict[str, tuple[Goal, ...]] = {
         Goal(f"worst-case RMS {ref} over chapter-7 conditions < best baseline's", ref, over_conditions=True)
         for ref in ("step", "sine")
     ),
+    BANK: (Goal("RMS on independent references below the best per-actuator baseline", "independent"),),
+    BANK_SHARED: (
+        Goal(
+            f"RMS on independent references <= {BANK_ALLOCATOR_FACTOR}x the best budget allocator's",
+            "independent",
+            factor=BANK_ALLOCATOR_FACTOR,
+            strict=False,
+        ),
+    ),
 }
 """What each env's agent must achieve against the baselines (``results.md``, ``goals.json``)."""
+
+
+def goal_key(run: RunConfig) -> str:
+    """The run's entry of :data:`GOALS`: its env id, or for the bank on a shared budget :data:`BANK_SHARED`."""
+    if run.env_id == BANK and run.env_kwargs.get("scheme", "fixed_slots") == "shared_budget":
+        return BANK_SHARED
+    return run.env_id
 
 
 def _baselines(env_id: str, quick: bool) -> list[PolicyEntry]:
@@ -109,9 +133,17 @@ def _baselines(env_id: str, quick: bool) -> list[PolicyEntry]:
 def compare(run: RunConfig, out: Path) -> tuple[str, dict[str, Any]]:
     """Score ``out/best_model.zip`` beside the baselines; ``(results.md text, goals)``."""
     agent = load_policy(out / "best_model.zip")
-    entries = _baselines(run.env_id, run.quick) + [agent_entry(agent)]
     seeds = (0,) if run.quick else (0, 1, 2)
     results = Results()
+    if run.env_id == BANK:
+        scheme = str(run.env_kwargs.get("scheme", "fixed_slots"))
+        n = int(run.env_kwargs.get("n_actuators", 4))
+        specs = BANK_BASELINE_SPECS[:2] if run.quick else BANK_BASELINE_SPECS
+        entries = [bank_entry(s, scheme) for s in specs] + [bank_agent_entry(agent)]
+        run_bank_tracking(entries, results, n, scheme, seeds)
+        write_report(results, out / "evaluation")
+        return summarise(run, results, agent.name, [(bank_tracking_label(n, scheme), "")])
+    entries = _baselines(run.env_id, run.quick) + [agent_entry(agent)]
     if run.env_id == SELF_SENSING:
         run_table_6_1(entries, results, seeds, condition="self-sensing", model="forced-convection")
         conditions = [("self-sensing", "forced-convection")]
@@ -129,7 +161,7 @@ def summarise(
     run: RunConfig, results: Results, agent: str, conditions: list[tuple[str, str]]
 ) -> tuple[str, dict[str, Any]]:
     """``results.md``'s table of the agent and baselines, and its goals (:data:`GOALS`) checked."""
-    experiment = "7" if run.env_id == ROBUST else "6.1"
+    experiment = {ROBUST: "7", BANK: "9 bank tracking"}.get(run.env_id, "6.1")
     policies = results.distinct(experiment, "policy")
 
     def get(policy: str, condition: str, ref: str, metric: str, worst: bool = True) -> float:
@@ -138,6 +170,22 @@ def summarise(
         except KeyError:
             return math.nan
 
+    if run.env_id == BANK:
+        lines = [
+            f"# {run.algo.upper()} on {run.env_id} ({conditions[0][0]}) beside the report's controllers per actuator",
+            "",
+            "Independent references per actuator (steps, sines, random, holds) the agent never trained on.",
+            "Worst case over seeds; lengths in mm.",
+            "",
+            "| policy | condition | RMS | energy [J] |",
+            "|---|---|---|---|",
+        ]
+        for condition, _ in conditions:
+            for p in policies:
+                rms = get(p, condition, "independent", "rms_error_m")
+                energy = get(p, condition, "independent", "energy_j", worst=False)
+                lines.append(f"| {p} | {condition} | {rms * 1e3:.3f} | {energy:.2f} |")
+        return _with_goals(run, lines, get, agent, [p for p in policies if p != agent], [c for c, _ in conditions])
     lines = [
         f"# {run.algo.upper()} on {run.env_id} beside the report's controllers",
         "",
@@ -159,10 +207,21 @@ def summarise(
                 f"{get(p, condition, 'sine', 'energy_j', worst=False):.2f} |"
             )
     with_sensor = [p for p in policies if p != agent and "self-sensing" not in p]
-    labels = [c for c, _ in conditions]
+    return _with_goals(run, lines, get, agent, with_sensor, [c for c, _ in conditions])
+
+
+def _with_goals(
+    run: RunConfig,
+    lines: list[str],
+    get: Callable[..., float],
+    agent: str,
+    baselines: Sequence[str],
+    labels: Sequence[str],
+) -> tuple[str, dict[str, Any]]:
+    """``lines`` with the run's goals (:data:`GOALS`) checked and appended; ``(text, goals)``."""
     goals = {
-        g.name: g.check(lambda p, c, g=g: get(p, c, g.reference, g.metric), agent, with_sensor, labels)
-        for g in GOALS.get(run.env_id, ())
+        g.name: g.check(lambda p, c, g=g: get(p, c, g.reference, g.metric), agent, baselines, labels)
+        for g in GOALS.get(goal_key(run), ())
     }
     lines += ["", "## Goals", ""]
     for name, g in goals.items():

@@ -4,7 +4,8 @@ Hyperparameters live in ``hyperparams/<algo>.yml``, RL Baselines3 Zoo's format (
 per algorithm, one entry per env id), the one source that ``train.py`` and
 ``python -m rl_zoo3.train --conf-file hyperparams/<algo>.yml`` both read. The agent's
 features are the entry's ``vec_env_wrapper`` list (:data:`RESIDUAL_WRAPPER`, then
-:data:`HISTORY_WRAPPER`); command-line options override the file.
+:data:`HISTORY_WRAPPER`; for the multiplexed bank :data:`BANK_WRAPPER` alone, one policy per
+actuator); command-line options override the file.
 :meth:`RunConfig.from_args` merges the two and checks every value before anything is
 created, so a bad option exits 2 with its name.
 """
@@ -31,11 +32,11 @@ EVAL_FREQ = {"sac": 20_000, "ppo": 250_000}
 """Default ``--eval-freq`` per algorithm: a command-line option, as in RL Zoo, not a hyperparameter."""
 RESIDUAL_WRAPPER = "sma_gym_agents.training.envs.ResidualVecEnv"
 HISTORY_WRAPPER = "sma_gym_agents.training.envs.HistoryVecEnv"
-NOT_FOR_TRAIN_PY = {
-    "SMAMultiplexed-v0": "train.py compares its agent with the report's single-wire controllers; "
-    'train this env with RL Zoo (README "Training")',
-}
-"""Env ids the hyperparameter files hold for RL Zoo only, with the reason."""
+BANK_WRAPPER = "sma_gym_agents.training.envs.BankVecEnv"
+BANK_ENV = "SMAMultiplexed-v0"
+"""The env whose agent is one policy shared by every actuator of the bank (:data:`BANK_WRAPPER`)."""
+NOT_FOR_TRAIN_PY: dict[str, str] = {}
+"""Env ids the hyperparameter files hold for RL Zoo only, with the reason (none since the bank trains)."""
 _RUN_KEYS = ("n_timesteps", "n_envs", "frame_stack", "vec_env_wrapper", "env_kwargs")
 """Zoo keys that configure the run; the rest go to the algorithm."""
 _ZOO_ONLY_KEYS = (
@@ -94,6 +95,10 @@ def agent_features(wrappers: Any) -> tuple[str, str | None, float]:
     items = [] if wrappers is None else wrappers if isinstance(wrappers, list) else [wrappers]
     parsed = [(next(iter(w)), dict(next(iter(w.values())) or {})) if isinstance(w, dict) else (w, {}) for w in items]
     names = [name for name, _ in parsed]
+    if BANK_WRAPPER in names:
+        if names != [BANK_WRAPPER] or parsed[0][1]:
+            raise ValueError(f"vec_env_wrapper {names}: {BANK_WRAPPER} stands alone and takes no keyword arguments")
+        return "none", None, DEFAULT_RESIDUAL_SCALE
     if names not in ([], [RESIDUAL_WRAPPER], [HISTORY_WRAPPER], [RESIDUAL_WRAPPER, HISTORY_WRAPPER]):
         # train.py rebuilds the agent's view at evaluation (sma_gym_agents.trained.AgentPolicy), which
         # knows these two features in this order only.
@@ -115,6 +120,21 @@ def agent_features(wrappers: Any) -> tuple[str, str | None, float]:
     )
 
 
+def env_kwargs_option(items: list[str] | None) -> dict[str, Any]:
+    """``--env-kwargs key:value ...`` as a dict (values as Python literals where they parse,
+    else strings); ``ValueError`` naming an item without a key."""
+    out: dict[str, Any] = {}
+    for item in items or []:
+        key, sep, text = item.partition(":")
+        if not sep or not key.isidentifier():
+            raise ValueError(f"--env-kwargs {item!r}: expected KEY:VALUE, e.g. n_actuators:16")
+        try:
+            out[key] = ast.literal_eval(text)
+        except (SyntaxError, ValueError):
+            out[key] = text
+    return out
+
+
 def build_parser() -> argparse.ArgumentParser:
     """``train.py``'s command line."""
     p = argparse.ArgumentParser(
@@ -134,6 +154,13 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         help=f"environment steps (over all envs) between validation evaluations (default {EVAL_FREQ['sac']} for SAC, "
         f"{EVAL_FREQ['ppo']} for PPO), as RL Zoo's --eval-freq",
+    )
+    p.add_argument(
+        "--env-kwargs",
+        nargs="+",
+        metavar="KEY:VALUE",
+        help="make kwargs over the file's env_kwargs, as RL Zoo's --env-kwargs (a value is read as a Python "
+        "literal, else as a string), e.g. n_actuators:16 scheme:shared_budget",
     )
     p.add_argument("--n-envs", type=int, help="parallel envs in the native vector env (default: from the file)")
     p.add_argument(
@@ -222,6 +249,11 @@ class RunConfig:
         if "policy_kwargs" in model_kwargs:
             model_kwargs["policy_kwargs"] = literal_kwargs(model_kwargs["policy_kwargs"], "policy_kwargs")
         history, file_residual, residual_scale = agent_features(table.get("vec_env_wrapper"))
+        if (args.env == BANK_ENV) != (BANK_WRAPPER in str(table.get("vec_env_wrapper"))):
+            raise ValueError(
+                f"{hyperparams_path(algo).name} [{args.env}]: {BANK_ENV} trains through vec_env_wrapper "
+                f"{BANK_WRAPPER} (one policy for every actuator), and only it does"
+            )
         timesteps = int(table["n_timesteps"] if args.timesteps is None else args.timesteps)
         eval_freq = EVAL_FREQ[algo] if args.eval_freq is None else args.eval_freq
         if args.quick:
@@ -240,7 +272,7 @@ class RunConfig:
             residual=residual,
             residual_scale=residual_scale,
             eval_freq=eval_freq,
-            env_kwargs=dict(table.get("env_kwargs", {})),
+            env_kwargs={**table.get("env_kwargs", {}), **env_kwargs_option(args.env_kwargs)},
             seed=args.seed,
             device=args.device,
             threads=args.threads,
@@ -263,6 +295,12 @@ class RunConfig:
             # features or a residual base would be seen differently in training and evaluation.
             raise ValueError(
                 f"--frame-stack {self.frame_stack} with history or residual: expected --frame-stack 1, or --history none --residual none"
+            )
+        if self.env_id == BANK_ENV and (self.history != "none" or self.residual is not None or self.frame_stack > 1):
+            # The per-actuator view (sma_gym_agents.bank.BankView) is the bank agent's only feature.
+            raise ValueError(
+                f"--env {BANK_ENV} with history {self.history!r}, residual {self.residual!r}, frame stack "
+                f"{self.frame_stack}: expected --history none --residual none --frame-stack 1"
             )
         if self.history not in HISTORIES:
             raise ValueError(f"history = {self.history!r}: expected 'none' or 'ema'")

@@ -9,10 +9,12 @@ wrappers here hold the very objects evaluation uses (:class:`sma_gym_agents.resi
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium import spaces
 from stable_baselines3.common.vec_env import (
     DummyVecEnv,
     VecEnv,
@@ -23,12 +25,14 @@ from stable_baselines3.common.vec_env import (
 
 import sma_gym  # noqa: F401  (registers the ids)
 from sma_gym.envs import references as refs
+from sma_gym.envs.multiplexed import DEFAULT_N_ACTUATORS
 from sma_gym.envs.sb3 import SB3VecEnv
 from sma_gym.params import preset
+from sma_gym_agents.bank import BankView
 from sma_gym_agents.history import HistoryFeatures
 from sma_gym_agents.policies import env_attr
 from sma_gym_agents.residual import ResidualStep
-from sma_gym_agents.training.config import RunConfig
+from sma_gym_agents.training.config import BANK_ENV, RunConfig
 
 VALIDATION_SEED = 10_000
 """First seed of the validation references (training draws its references from seeds below)."""
@@ -102,6 +106,96 @@ class HistoryVecEnv(VecEnvWrapper):
         return out, rewards, dones, infos
 
 
+class BankVecEnv(VecEnv):
+    """Every actuator of every bank as one sub-env of a stable-baselines3 VecEnv.
+
+    ``venv``: a VecEnv of ``SMAMultiplexed-v0`` banks (all of one n and scheme). Sub-env
+    ``b * n + j`` is actuator j of bank b: its observation :class:`BankView`'s row, its
+    action that actuator's entry of the bank's action, its reward that actuator's own
+    tracking term (``actuator_rewards``). A bank's episode ends for all its actuators at once.
+    RL Zoo's ``vec_env_wrapper`` calls it as ``BankVecEnv(venv)``. ``references``: one list
+    per bank of one reference per actuator, given at every reset (fixed validation banks).
+    """
+
+    def __init__(self, venv: Any, references: Sequence[Sequence[Any]] | None = None):
+        self.venv = venv
+        self.n = int(env_attr(venv, "n"))
+        self.view = BankView(str(env_attr(venv, "scheme")))
+        if references is not None and (len(references) != venv.num_envs or any(len(r) != self.n for r in references)):
+            raise ValueError(
+                f"references: expected {venv.num_envs} lists (one per bank) of {self.n} references (one per actuator)"
+            )
+        self.references = references
+        self._actions: np.ndarray | None = None
+        self._returns = np.zeros(venv.num_envs * self.n)
+        self._lengths = np.zeros(venv.num_envs * self.n, dtype=np.int64)
+        super().__init__(
+            num_envs=venv.num_envs * self.n,
+            observation_space=BankView.observation_space(),
+            action_space=spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32),
+        )
+
+    def reset(self) -> np.ndarray:
+        if self.references is not None:
+            self.venv.set_options([{"references": list(r)} for r in self.references])
+        self._returns[:] = 0.0
+        self._lengths[:] = 0
+        return self.view.rows(self.venv.reset())
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self.venv.step_async(np.asarray(actions, dtype=np.float32).reshape(self.venv.num_envs, self.n))
+
+    def step_wait(self):
+        obs, _, dones, infos = self.venv.step_wait()
+        rewards = np.concatenate([np.asarray(r, dtype=float) for r in self.venv.get_attr("actuator_rewards")])
+        done = np.repeat(np.asarray(dones, dtype=bool), self.n)
+        self._returns += rewards
+        self._lengths += 1
+        out: list[dict[str, Any]] = []
+        for b, info in enumerate(infos):
+            terminal = info.get("terminal_observation")
+            rows = self.view.rows(terminal) if terminal is not None else None
+            for j in range(self.n):
+                i = b * self.n + j
+                entry: dict[str, Any] = {}
+                if dones[b]:
+                    entry["TimeLimit.truncated"] = bool(info.get("TimeLimit.truncated", False))
+                    if rows is not None:
+                        entry["terminal_observation"] = rows[j]
+                    entry["episode"] = {"r": float(self._returns[i]), "l": int(self._lengths[i]), "t": 0.0}
+                out.append(entry)
+        self._returns[done] = 0.0
+        self._lengths[done] = 0
+        return self.view.rows(obs), rewards.astype(np.float32), done, out
+
+    def close(self) -> None:
+        self.venv.close()
+
+    def _banks(self, indices: Any) -> list[int]:
+        chosen = range(self.num_envs) if indices is None else [indices] if isinstance(indices, int) else indices
+        return [int(i) // self.n for i in chosen]
+
+    def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
+        values = self.venv.get_attr(attr_name)
+        return [values[b] for b in self._banks(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
+        self.venv.set_attr(attr_name, value, sorted(set(self._banks(indices))))
+
+    def env_method(self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any) -> list[Any]:
+        results = self.venv.env_method(method_name, *method_args, **method_kwargs)
+        return [results[b] for b in self._banks(indices)]
+
+    def env_is_wrapped(self, wrapper_class: Any, indices: Any = None) -> list[bool]:
+        # Monitor: this class reports each actuator's episodes as a Monitor would ("episode" info).
+        from stable_baselines3.common.monitor import Monitor
+
+        return [wrapper_class is Monitor for _ in self._banks(indices)]
+
+    def seed(self, seed: int | None = None) -> Sequence[None | int]:
+        return self.venv.seed(seed)
+
+
 def agent_view(
     venv: VecEnv,
     env_id: str,
@@ -133,10 +227,16 @@ def make_vec_env(
     residual_scale: float = 0.5,
     max_episode_steps: int | None = None,
 ) -> VecEnv:
-    """SB3 VecEnv: the native vector env where the id has one, with a monitor and the agent view."""
+    """SB3 VecEnv: the native vector env where the id has one, with a monitor and the agent view
+    (the multiplexed bank: ``n_envs`` banks, each actuator a sub-env, :class:`BankVecEnv`)."""
     kwargs = dict(env_kwargs)
     if max_episode_steps is not None:
         kwargs["max_episode_steps"] = max_episode_steps
+    if env_id == BANK_ENV:
+        # BankVecEnv reports each actuator's episodes itself: no VecMonitor below it.
+        venv = BankVecEnv(DummyVecEnv([lambda: gym.make("sma_gym:" + env_id, **kwargs)] * n_envs))
+        venv.seed(seed)
+        return venv
     if gym.spec(env_id).vector_entry_point is not None:
         # The adapter reports episodes itself (as Monitor does): no VecMonitor on top.
         venv = SB3VecEnv(
@@ -169,8 +269,25 @@ def validation_references(count: int = 8) -> list[dict[str, Any]]:
     return out
 
 
+def validation_count(run: RunConfig) -> int:
+    """How many validation references a run draws: 4 (quick) or 8 single-wire episodes; for
+    the bank 2 (quick) or 4 banks of n actuators, each actuator its own reference."""
+    episodes = 4 if run.quick else 8
+    if run.env_id == BANK_ENV:
+        return (episodes // 2) * int(run.env_kwargs.get("n_actuators", DEFAULT_N_ACTUATORS))
+    return episodes
+
+
 def make_validation_env(run: RunConfig, references: list[dict[str, Any]]) -> VecEnv:
-    """One env per validation reference, seen through the run's agent view."""
+    """One env per validation reference, seen through the run's agent view (the bank: one
+    bank per n references, each actuator its own, the same at every evaluation)."""
+    if run.env_id == BANK_ENV:
+        n = int(run.env_kwargs.get("n_actuators", DEFAULT_N_ACTUATORS))
+        banks = [references[k : k + n] for k in range(0, len(references) - n + 1, n)]
+        fns = [lambda: gym.make("sma_gym:" + run.env_id, **run.env_kwargs)] * len(banks)
+        venv = BankVecEnv(DummyVecEnv(fns), references=banks)
+        venv.seed(VALIDATION_SEED)
+        return venv
     fns = [
         (lambda ref=ref: gym.make("sma_gym:" + run.env_id, **{**run.env_kwargs, "reference": ref}))
         for ref in references

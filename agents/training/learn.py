@@ -26,6 +26,7 @@ from sma_gym_agents.training.config import RunConfig
 from sma_gym_agents.training.envs import (
     make_training_env,
     make_validation_env,
+    validation_count,
     validation_references,
 )
 
@@ -116,14 +117,14 @@ def train(run: RunConfig, out: Path, progress: bool = True) -> TrainingInfo:
     torch.set_num_threads(run.threads)
     torch.manual_seed(run.seed)
     venv = make_training_env(run)
-    references = validation_references(4 if run.quick else 8)
+    references = validation_references(validation_count(run))
     eval_env = make_validation_env(run, references)
     model = make_model(run, venv, out)
-    per_env = max(1, run.eval_freq // run.n_envs)
+    per_env = max(1, run.eval_freq // venv.num_envs)
     best = out / "best_model.zip"
     evaluation = EvalCallback(
         eval_env,
-        n_eval_episodes=len(references),
+        n_eval_episodes=eval_env.num_envs,
         eval_freq=per_env,
         # Saved by SaveBest (atomic, with its card) rather than by SB3 (a bare zip).
         callback_on_new_best=SaveBest(run, best),

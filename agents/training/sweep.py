@@ -135,7 +135,10 @@ def seed_argv(parser: argparse.ArgumentParser, args: argparse.Namespace, seed: i
         if value is None or value is False or (value == action.default and action.default is not None):
             continue
         flag = action.option_strings[-1]
-        argv += [flag] if value is True else [flag, str(value)]
+        if isinstance(value, list):  # nargs="+" (--env-kwargs)
+            argv += [flag, *map(str, value)]
+        else:
+            argv += [flag] if value is True else [flag, str(value)]
     return [*argv, "--seed", str(seed), "--out", str(out)]
 
 

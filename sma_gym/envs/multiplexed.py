@@ -50,7 +50,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
             simulation sees the real pulse train. Besides the Gymnasium API:
             `reference_description()`, `multiplexer`, `scheme`, `position_scale_m`,
             `resistance_scale_ohm`, `duty_range`, `control_period_s`, `duty_for()`,
-            `action_for()`, `pulse_layout()`.
+            `action_for()`, `pulse_layout()`, `actuator_rewards`.
             """,
         Action_Space=docs.join(
             "`Box(-1, 1, (n,), float32)`: entry j is actuator j's action; duty range [0, 1/n] on "
@@ -140,6 +140,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         self._actuators = np.arange(self.n, dtype=np.int64)
         self._obs = np.zeros((self.n, self.features_per_actuator), dtype=np.float32)
         self._reward = np.zeros(self.n)
+        self._step_reward = np.zeros(self.n)
         self._term = np.zeros(self.n, dtype=np.bool_)
         self._ref = np.zeros(self.n)
         self._duty = np.zeros((1, self.n))
@@ -187,6 +188,13 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         self._start_rendering()
         return self._obs.reshape(-1).copy(), self._info()
 
+    @property
+    def actuator_rewards(self) -> np.ndarray:
+        """Each actuator's reward in the last :meth:`step` (shape (n,); the env's reward is
+        their mean). Kept through :meth:`reset`, so a vector env that resets a finished
+        episode at once still reads the rewards of the step that finished it."""
+        return self._step_reward.copy()
+
     def reference_description(self) -> list[dict[str, Any]]:
         """Each actuator's reference (kind, name, parameters; keys depend on the kind)."""
         return [ref.describe() for ref in self.task.references]
@@ -201,6 +209,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         self.sim.step_unchecked(self._duty)
         self.task.last_duty[:] = duty
         self._evaluate()
+        self._step_reward[:] = self._reward
         if self.render_mode is not None:
             self._rendered_step()
         return self._obs.reshape(-1).copy(), float(self._reward.mean()), bool(self._term.any()), False, self._info()

@@ -1,0 +1,87 @@
+"""Agents that scale with n (issue 16): one policy per actuator, shared by the bank."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import sma_gym  # noqa: F401  (registers the ids)
+from sma_gym_agents.bank import CONTEXT_FEATURES, BankAgent, BankView
+from sma_gym_agents.training.config import RunConfig, parse_args
+from sma_gym_agents.training.envs import make_vec_env
+
+
+def bank(n: int, scheme: str = "fixed_slots", steps: int = 20):
+    return gym.make(
+        "sma_gym:SMAMultiplexed-v0", n_actuators=n, scheme=scheme, control_period_s=0.01, max_episode_steps=steps
+    )
+
+
+def test_bank_view_rows_are_own_features_plus_context_that_does_not_grow_with_n():
+    view = BankView("shared_budget")
+    env = bank(3, "shared_budget")
+    obs, _ = env.reset(seed=0)
+    obs, *_ = env.step(np.array([1.0, 0.0, -1.0], dtype=np.float32))  # shares 1, 0.5, 0: scaled by 1/1.5
+    rows = view.rows(obs)
+    assert rows.shape == (3, 10 + len(CONTEXT_FEATURES)) == (3, BankView.observation_space().shape[0])
+    np.testing.assert_array_equal(rows[:, :10], obs.reshape(3, 10))
+    np.testing.assert_allclose(rows[:, 10], 3 / 16)
+    np.testing.assert_allclose(rows[:, 11], 1.0)  # a shared budget: one actuator may take the cycle
+    np.testing.assert_allclose(rows[:, 12], [1 / 3, 2 / 3, 1.0], rtol=1e-5)  # what the others took
+    np.testing.assert_allclose(rows[:, 13], 1.0)
+    assert BankView("fixed_slots").rows(np.zeros((2, 40)))[0, 11] == pytest.approx(0.25)
+    with pytest.raises(ValueError, match="width 25"):
+        view.rows(np.zeros(25))
+
+
+def test_bank_vec_env_gives_each_actuator_its_own_reward_and_ends_the_bank_together():
+    venv = make_vec_env("SMAMultiplexed-v0", 2, {"n_actuators": 3, "control_period_s": 0.01}, 1, 0, max_episode_steps=5)
+    assert venv.num_envs == 6 and venv.action_space.shape == (1,)
+    obs = venv.reset()
+    assert obs.shape == (6, 14)
+    for _ in range(5):
+        obs, rewards, dones, infos = venv.step(np.full((6, 1), 0.5, dtype=np.float32))
+        banks = venv.venv.get_attr("actuator_rewards")
+        np.testing.assert_allclose(rewards, np.concatenate(banks), rtol=1e-6)
+    assert dones.all() and all("terminal_observation" in i and "episode" in i for i in infos)
+    assert infos[0]["terminal_observation"].shape == (14,)
+    venv.close()
+
+
+def test_train_py_config_trains_the_bank_with_its_wrapper_only():
+    run = RunConfig.from_args(
+        parse_args(["--env", "SMAMultiplexed-v0", "--env-kwargs", "n_actuators:16", "scheme:shared_budget"])
+    )
+    assert run.env_kwargs["n_actuators"] == 16 and run.env_kwargs["scheme"] == "shared_budget"
+    assert (run.history, run.residual, run.frame_stack) == ("none", None, 1)
+    with pytest.raises(ValueError, match="--history none"):
+        RunConfig.from_args(parse_args(["--env", "SMAMultiplexed-v0", "--history", "ema"]))
+    with pytest.raises(ValueError, match="KEY:VALUE"):
+        RunConfig.from_args(parse_args(["--env", "SMAMultiplexed-v0", "--env-kwargs", "n_actuators=16"]))
+
+
+def test_one_saved_policy_acts_on_banks_of_1_4_and_16(tmp_path):
+    from stable_baselines3 import SAC
+
+    venv = make_vec_env(
+        "SMAMultiplexed-v0", 1, {"n_actuators": 4, "control_period_s": 0.01}, 1, 0, max_episode_steps=20
+    )
+    model = SAC("MlpPolicy", venv, learning_starts=20, batch_size=32, policy_kwargs={"net_arch": [16]}, seed=0)
+    model.learn(40)
+    model.save(tmp_path / "bank.zip")
+    venv.close()
+    loaded = SAC.load(tmp_path / "bank.zip", device="cpu")
+    for scheme in ("fixed_slots", "shared_budget"):
+        agent = BankAgent(loaded, scheme)
+        for n in (1, 4, 16):
+            env = bank(n, scheme)
+            obs, _ = env.reset(seed=n)
+            action, _ = agent.predict(obs)
+            assert action.shape == (n,) and np.all(np.abs(action) <= 1.0)
+            env.step(action)
+            batch, _ = agent.predict(np.stack([obs, obs]))
+            np.testing.assert_allclose(batch[0], action)
+            # One model for every actuator: actuator j's action is the model's on its row.
+            row_action, _ = loaded.predict(agent.view.rows(obs)[n - 1 : n], deterministic=True)
+            assert action[n - 1] == pytest.approx(float(row_action[0, 0]), abs=1e-6)
