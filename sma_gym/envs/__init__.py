@@ -19,8 +19,9 @@ the docstring of its class: :class:`~sma_gym.envs.single.SMATrackingEnv`,
 prefix imports ``sma_gym``, which registers the ids), and ``env.spec.id`` keeps that form,
 so a logged id can be made again anywhere. All four entry points live in
 :mod:`sma_gym.envs.sma_gym_envs`, so ``gymnasium.pprint_registry()`` lists the ids together
-under ``sma_gym_envs``. The three single-actuator ids also have a native vector env:
-``gymnasium.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")``.
+under ``sma_gym_envs``. Every id also has a native vector env:
+``gymnasium.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")`` (for
+``SMAMultiplexed-v0``, N banks: :class:`~sma_gym.envs.multiplexed.SMAMultiplexedVectorEnv`).
 """
 
 from __future__ import annotations
@@ -70,7 +71,7 @@ def register_envs() -> None:
         ("SMATracking-v0", "SMATrackingEnv", "tracking_vector"),
         ("SMASelfSensing-v0", "SMASelfSensingEnv", "self_sensing_vector"),
         ("SMARobust-v0", "SMARobustEnv", "robust_vector"),
-        ("SMAMultiplexed-v0", "SMAMultiplexedEnv", None),
+        ("SMAMultiplexed-v0", "SMAMultiplexedEnv", "multiplexed_vector"),
     )
     for env_id, single, vector in specs:
         if env_id in gymnasium.registry:

@@ -6,11 +6,15 @@ docstring of :class:`SMAMultiplexedEnv`.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
 
 from sma_gym._validation import require_action, require_choice, require_int_range, require_range
 from sma_gym.electrical.multiplexer import SCHEMES, Multiplexer
@@ -18,6 +22,7 @@ from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs import references as refs
 from sma_gym.envs.render import EpisodeRendering
 from sma_gym.envs.single import TRACKING, Settings, SMAEnv, keyword_settings, spell_out_settings, with_settings
+from sma_gym.envs.vector import reset_arguments
 from sma_gym.simulator import Simulator
 
 DEFAULT_N_ACTUATORS = 4
@@ -227,3 +232,209 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
 
 
 spell_out_settings(SMAMultiplexedEnv.__init__, _SETTINGS)
+
+
+class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
+    __doc__ = docs.env_doc(
+        "``num_envs`` multiplexed banks simulated as one batch (the native vector env of ``SMAMultiplexed-v0``).",
+        Description="""
+            `gymnasium.make_vec("sma_gym:SMAMultiplexed-v0", num_envs=N,
+            vectorization_mode="vector_entry_point", n_actuators=n, ...)`: bank b is actuators
+            b*n ... b*n + n - 1 of one :class:`~sma_gym.Simulator`, stepped together, each bank
+            on its own driver (its own slots or budget). Semantics match N single
+            `SMAMultiplexedEnv`s exactly (tested): bank b is seeded with `seed + b` and draws
+            its references and sensor noise from its own generator in the same order as a
+            single env. Besides the Gymnasium API: the single env's constants (`n`, `scheme`,
+            `multiplexer`, `duty_range`, `feature_names`, `control_period_s`,
+            `duty_for()`, `action_for()`), `position_scale_m` and `resistance_scale_ohm`
+            (one per bank) and `reference_description()`.
+            """,
+        Action_Space="`Box(-1, 1, (num_envs, n), float32)`: row b is bank b's action (the single env's).",
+        Observation_Space="`Box(low, high, (num_envs, n * 10), float32)`: row b is bank b's observation.",
+        Rewards="Row b: bank b's reward (the mean over its actuators, as the single env's).",
+        Starting_State=docs.join(
+            docs.START,
+            '`reset(options={"references": [...]})`: one reference per actuator, for every bank reset; '
+            '`reset(options={"reset_mask": mask})` resets only the masked banks.',
+        ),
+        Episode_End=docs.join(
+            docs.EPISODE_END,
+            "Autoreset `NEXT_STEP` only (Gymnasium's default): the step after a bank ends ignores "
+            "its action, resets it and returns its first observation with reward 0.",
+        ),
+        Info="The single env's keys, each an array of shape (num_envs, n) (`time_s`: (num_envs,)), with `_key` masks.",
+        Arguments=docs.arguments(
+            """
+            - `num_envs`: number of banks (1 to 2**16).
+            - `max_episode_steps`: truncate episodes after this many steps (`None`: never;
+              `make_vec` passes the registered 1000).
+            - `autoreset_mode`: `NEXT_STEP` (the only one).
+            - every argument of :class:`SMAMultiplexedEnv` except `render_mode`.
+            """
+        ),
+        Version_History="* 0.3: first release.",
+    )
+
+    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(
+        self,
+        num_envs: int,
+        n_actuators: int = DEFAULT_N_ACTUATORS,
+        cycling_frequency_hz: float = DEFAULT_CYCLING_FREQUENCY_HZ,
+        max_episode_steps: int | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        render_mode: None = None,
+        **kwargs: Any,
+    ):
+        self.num_envs = require_int_range("num_envs", num_envs, 1, 1 << 16)
+        if max_episode_steps is not None:
+            max_episode_steps = require_int_range("max_episode_steps", max_episode_steps, 1, 1 << 40)
+        self.max_episode_steps = max_episode_steps
+        mode = autoreset_mode.value if isinstance(autoreset_mode, AutoresetMode) else autoreset_mode
+        require_choice("autoreset_mode", mode, (AutoresetMode.NEXT_STEP.value,))
+        if render_mode is not None:
+            raise ValueError(f"render_mode = {render_mode!r}: expected None (the bank vector env does not render)")
+        self.autoreset_mode = AutoresetMode.NEXT_STEP
+        self.render_mode = None
+        # One single env as the prototype: the same checks, settings and constants.
+        self._bank = SMAMultiplexedEnv(n_actuators, cycling_frequency_hz, **kwargs)
+        bank = self._bank
+        self.n, self.scheme, self.multiplexer = bank.n, bank.scheme, bank.multiplexer
+        self.settings, self.duty_range, self.feature_names = bank.settings, bank.duty_range, bank.feature_names
+        self.control_period_s = bank.control_period_s
+        self.metadata = dict(self.metadata, render_fps=max(1, round(1.0 / self.control_period_s)))
+        n, m = self.n, self.num_envs
+        mux = self.multiplexer
+        slots = [(mux.period_s, mux.phase(j), mux.duty_max) for _ in range(m) for j in range(n)]
+        self.sim = Simulator(
+            [self.settings.model] * (m * n),
+            control_period_s=self.control_period_s,
+            pwm_mode="resolved",
+            pwm_slots=slots,
+        )
+        self.task = self.settings.task_state(m * n, task.OBS_POSITION)
+        self.single_observation_space = bank.observation_space
+        self.single_action_space = bank.action_space
+        self.observation_space = batch_space(self.single_observation_space, m)
+        self.action_space = batch_space(self.single_action_space, m)
+        self._obs = np.zeros((m * n, bank.features_per_actuator), dtype=np.float32)
+        self._reward = np.zeros(m * n)
+        self._term = np.zeros(m * n, dtype=np.bool_)
+        self._ref = np.zeros(m * n)
+        self._duty = np.zeros((1, m * n))
+        self._start = np.zeros(m * n)
+        self._steps = np.zeros(m, dtype=np.int64)
+        self._ended = np.zeros(m, dtype=bool)
+        self._rngs: list[np.random.Generator | None] = [None] * m
+        self._all = np.arange(m * n, dtype=np.int64)
+        self._evaluate = self.task.bind(self.sim, self._all, self._obs, self._reward, self._term, self._ref)
+
+    @property
+    def position_scale_m(self) -> np.ndarray:
+        """Stroke each bank's position features are divided by [m], shape (num_envs,)."""
+        return self.sim.usable_stroke_m[:: self.n].copy()
+
+    @property
+    def resistance_scale_ohm(self) -> np.ndarray:
+        """Cold resistance each bank's resistance feature is relative to [ohm], shape (num_envs,)."""
+        return self.sim.cold_resistance_ohm[:: self.n].copy()
+
+    def duty_for(self, actions: np.ndarray) -> np.ndarray:
+        """Each actuator's duty for (clipped) actions in [-1, 1] (the single env's)."""
+        return self.duty_range.duty_for(actions)
+
+    def action_for(self, duties: np.ndarray) -> np.ndarray:
+        """Inverse of :meth:`duty_for`."""
+        return self.duty_range.action_for(duties)
+
+    def reference_description(self) -> list[list[dict[str, Any]]]:
+        """Each bank's references (one list per bank, one dict per actuator)."""
+        return [
+            [ref.describe() for ref in self.task.references[b * self.n : (b + 1) * self.n]]
+            for b in range(self.num_envs)
+        ]
+
+    def reset(self, *, seed: int | Sequence[int | None] | None = None, options: dict | None = None):
+        """Reset all banks, or those in ``options["reset_mask"]``; bank b gets ``seed + b``."""
+        mask, seeds, options = reset_arguments(seed, options, self.num_envs)
+        if mask is None:
+            mask = np.ones(self.num_envs, dtype=bool)
+        for b in np.flatnonzero(mask):
+            if seeds[b] is not None:
+                self._rngs[b], _ = seeding.np_random(seeds[b])
+        self._reset_banks(np.flatnonzero(mask), options)
+        return self._observation(), self._info()
+
+    def _reset_banks(self, banks: np.ndarray, options: dict) -> None:
+        n = self.n
+        unknown = set(options) - {"reference", "references"}
+        if unknown:
+            raise ValueError(f"reset options {sorted(unknown)}: expected 'reference', 'references' or 'reset_mask'")
+        specs = options.get("references")
+        if specs is None:
+            specs = [options.get("reference")] * n
+        if len(specs) != n:
+            raise ValueError(f"options['references'] has {len(specs)} entries: expected {n}")
+        for b in banks:
+            if self._rngs[b] is None:
+                self._rngs[b], _ = seeding.np_random(None)
+            rng = self._rngs[b]
+            for j, spec in enumerate(specs):
+                i = b * n + j
+                stroke = float(self.sim.usable_stroke_m[i])
+                self.task.set_reference(i, refs.resolve(spec, rng, stroke, self.settings.reference))
+            actuators = np.arange(b * n, (b + 1) * n)
+            self.sim.reset(actuators)
+            for i in actuators:
+                self.task.reset_actuator(int(i), self.sim)
+            self._steps[b] = 0
+        self._ended[banks] = False
+        self._evaluate()
+
+    def step(self, actions):
+        m, n = self.num_envs, self.n
+        a = np.asarray(actions, dtype=np.float64).reshape(m, -1)
+        if a.shape[1] != n or not np.isfinite(a).all():
+            raise ValueError(f"actions = {actions!r}: expected finite values in [-1, 1], shape ({m}, {n})")
+        restart = self._ended.copy()
+        duty = self.duty_for(a)
+        if self.scheme == "shared_budget":
+            for b in range(m):
+                duty[b], self._start[b * n : (b + 1) * n] = self.multiplexer.layout(duty[b])
+            self.sim.set_pulse_start(self._start)
+        self._duty[0] = duty.reshape(-1)
+        noise = None
+        if self.sim.has_noise:
+            # A bank restarting this step draws no noise: a single env draws none on reset.
+            noise = np.zeros((1, 4, m * n))
+            for b in np.flatnonzero(~restart):
+                noise[0, :, b * n : (b + 1) * n] = self._rngs[b].standard_normal((1, 4, n))[0]
+        self.sim.step_unchecked(self._duty, noise)
+        self.task.last_duty[:] = self._duty[0]
+        self._evaluate()
+        self._steps += 1
+        reward = self._reward.reshape(m, n).mean(axis=1)
+        terminated = self._term.reshape(m, n).any(axis=1)
+        if restart.any():
+            self._reset_banks(np.flatnonzero(restart), {})
+            reward[restart] = 0.0
+            terminated[restart] = False
+        if self.max_episode_steps is not None:
+            truncated = (self._steps >= self.max_episode_steps) & ~terminated
+        else:
+            truncated = np.zeros(m, dtype=bool)
+        self._ended = terminated | truncated
+        return self._observation(), reward, terminated, truncated, self._info()
+
+    def _observation(self) -> np.ndarray:
+        return self._obs.reshape(self.num_envs, -1).copy()
+
+    def _info(self) -> dict[str, Any]:
+        m, n = self.num_envs, self.n
+        info = {key: value.reshape(m, n) for key, value in self.task.info(self.sim, self._ref).items()}
+        info["time_s"] = self.sim.time_s[::n].copy()
+        every = np.ones(m, dtype=bool)
+        for key in list(info):
+            info["_" + key] = every
+        return info

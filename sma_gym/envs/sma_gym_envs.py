@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sma_gym.envs.multiplexed import SMAMultiplexedEnv
+from sma_gym.envs.multiplexed import SMAMultiplexedEnv, SMAMultiplexedVectorEnv
 from sma_gym.envs.single import ROBUST, SELF_SENSING, TRACKING, SMARobustEnv, SMASelfSensingEnv, SMATrackingEnv
 from sma_gym.envs.vector import SMAVectorEnv
 
@@ -20,6 +20,7 @@ __all__ = [
     "SMARobustEnv",
     "SMASelfSensingEnv",
     "SMATrackingEnv",
+    "multiplexed_vector",
     "robust_vector",
     "self_sensing_vector",
     "tracking_vector",
@@ -39,3 +40,8 @@ def self_sensing_vector(num_envs: int, **kwargs: Any) -> SMAVectorEnv:
 def robust_vector(num_envs: int, **kwargs: Any) -> SMAVectorEnv:
     """Vector entry point of ``SMARobust-v0``: :class:`SMAVectorEnv` of that variant (same kwargs)."""
     return SMAVectorEnv(num_envs, ROBUST, **kwargs)
+
+
+def multiplexed_vector(num_envs: int, **kwargs: Any) -> SMAMultiplexedVectorEnv:
+    """Vector entry point of ``SMAMultiplexed-v0``: :class:`SMAMultiplexedVectorEnv` (num_envs banks, same kwargs)."""
+    return SMAMultiplexedVectorEnv(num_envs, **kwargs)

@@ -219,24 +219,9 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
 
     def reset(self, *, seed: int | Sequence[int | None] | None = None, options: dict | None = None):
         """Reset all sub-envs, or those in ``options["reset_mask"]``; sub-env i gets ``seed + i``."""
-        options = dict(options or {})
-        mask = options.pop("reset_mask", None)
+        mask, seeds, options = reset_arguments(seed, options, self.num_envs)
         if mask is None:
             mask = self._all_true
-        elif not (
-            isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (self.num_envs,) and mask.any()
-        ):
-            raise ValueError(
-                f"options['reset_mask'] = {mask!r}: expected a bool numpy array of shape ({self.num_envs},) with a True entry"
-            )
-        if seed is None:
-            seeds: list[int | None] = [None] * self.num_envs
-        elif isinstance(seed, (int, np.integer)):
-            seeds = [int(seed) + i for i in range(self.num_envs)]
-        else:
-            seeds = list(seed)
-            if len(seeds) != self.num_envs:
-                raise ValueError(f"seed has {len(seeds)} entries: expected {self.num_envs} (one per env)")
         first = int(np.flatnonzero(mask)[0])
         if seeds[first] is not None:
             self._np_random, self._np_random_seed = seeding.np_random(seeds[first])
@@ -394,3 +379,28 @@ VECTOR_SETTINGS = keyword_settings(SMARobustEnv.__init__)
 variant that does not randomise is refused by :meth:`Settings.from_arguments`)."""
 
 spell_out_settings(SMAVectorEnv.__init__, VECTOR_SETTINGS)
+
+
+def reset_arguments(
+    seed: int | Sequence[int | None] | None, options: dict | None, num_envs: int
+) -> tuple[np.ndarray | None, list[int | None], dict]:
+    """A vector reset's ``(reset_mask or None, one seed per sub-env, the other options)``:
+    sub-env i gets ``seed + i`` (as Gymnasium's ``SyncVectorEnv``) or its entry of a list;
+    ``ValueError`` naming a bad mask or seed list."""
+    options = dict(options or {})
+    mask = options.pop("reset_mask", None)
+    if mask is not None and not (
+        isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (num_envs,) and mask.any()
+    ):
+        raise ValueError(
+            f"options['reset_mask'] = {mask!r}: expected a bool numpy array of shape ({num_envs},) with a True entry"
+        )
+    if seed is None:
+        seeds: list[int | None] = [None] * num_envs
+    elif isinstance(seed, (int, np.integer)):
+        seeds = [int(seed) + i for i in range(num_envs)]
+    else:
+        seeds = list(seed)
+        if len(seeds) != num_envs:
+            raise ValueError(f"seed has {len(seeds)} entries: expected {num_envs} (one per env)")
+    return mask, seeds, options
