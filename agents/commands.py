@@ -20,7 +20,7 @@ try:
     from sma_gym_agents.trained import load_policy
 except ModuleNotFoundError as err:
     # Listed by `sma-gym --help` as unavailable, naming the extra that makes both work.
-    raise extra_error(err, "sma-gym evaluate and fidelity", "train") from err
+    raise extra_error(err, "sma-gym evaluate and sma-gym fidelity", modules=("matplotlib", "scipy")) from err
 
 
 # --------------------------------------------------------------------------------------
@@ -49,6 +49,9 @@ FIDELITY = Command(
     "compare the simulator with every result of the report (125 rows of REPORT_TARGETS, Table 6.1 and chapters 7-9 included)",
     _fidelity_arguments,
     _fidelity,
+    description="Prints the table of every row of the report (pass, fail, calibration, disputed) and "
+    "its summary; --out writes the plots. Exit code 0 when no row fails, 1 when some do (the "
+    "model's known misses: docs/model.md), 2 for a bad argument.",
     needs=("scipy", "matplotlib"),
     extra="train",
 )

@@ -21,7 +21,10 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
-from sma_gym.extras import MissingExtraError, extra_error, require
+from sma_gym.extras import MissingExtraError, extra_error, install_hint, missing, require
+
+DEFAULT_DIAGNOSIS_MODEL = "standard"
+"""The nominal model ``sma-gym diagnose`` starts from when ``--model`` is not given."""
 
 COMMANDS_GROUP = "sma_gym.commands"
 """Entry-point group of the subcommands other packages add (each names a :class:`Command`)."""
@@ -73,7 +76,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     except MeasuredDataError as err:
         print(f"sma-gym diagnose: invalid measured data:\n{err}", file=sys.stderr)
         return 2
-    nominal = load_model(args.model)
+    nominal = load_model(args.model or DEFAULT_DIAGNOSIS_MODEL)
     effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
     for name in effects or []:
         if name not in EFFECTS:
@@ -88,6 +91,14 @@ def _diagnose(args: argparse.Namespace) -> int:
         result = diagnose(fit, held, nominal, effects, progress=progress, max_rounds=args.max_rounds)
         paths = write_outputs(result, out, fit, held, nominal)
     _print_diagnosis(result, paths, args.json)
+    if args.model is None and result.verdict == "unexplained":
+        # The commonest cause on real data: the wrong actuator, not a missing effect.
+        print(
+            f"sma-gym diagnose: note: the nominal model was the default {DEFAULT_DIAGNOSIS_MODEL!r} (the report's "
+            "0.3 mm wire at 10 V); if your actuator differs, give --model (a preset such as "
+            "bench-0.5mm-ht-datasheet, or a model JSON file)",
+            file=sys.stderr,
+        )
     return 0
 
 
@@ -154,8 +165,8 @@ def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, help="folder for the report, plots, JSON and corrected_model.json")
     p.add_argument(
         "--model",
-        default="standard",
-        help="nominal model: a preset or twin name or a model JSON file (default standard)",
+        default=None,
+        help=f"nominal model: a preset or twin name or a model JSON file (default {DEFAULT_DIAGNOSIS_MODEL})",
     )
     p.add_argument("--effects", help="comma-separated subset of effects to consider (default: all)")
     p.add_argument(
@@ -274,7 +285,14 @@ def build_parser(commands: Sequence[Command] | None = None) -> argparse.Argument
     parser = argparse.ArgumentParser(prog="sma-gym", description="SMA actuator simulator, environments and tools.")
     sub = parser.add_subparsers(dest="command", required=True)
     for command in all_commands() if commands is None else commands:
-        p = sub.add_parser(command.name, help=command.help, description=command.description)
+        help_text, description = command.help, command.description
+        absent = missing(*command.needs)
+        if absent and command.available:
+            # Listed with what to install, so --help tells the truth for any set of extras.
+            help_text = f"(needs {', '.join(absent)}: {install_hint(absent, command.extra)}) {command.help}"
+        if not command.available:
+            description = command.help
+        p = sub.add_parser(command.name, help=help_text, description=description)
         command.add_arguments(p)
         p.set_defaults(func=command.run)
     return parser

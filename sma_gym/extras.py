@@ -10,7 +10,11 @@ a traceback from deep inside.
 
 from __future__ import annotations
 
+import functools
+import importlib.metadata
 import importlib.util
+import json
+from urllib.parse import unquote, urlparse
 
 EXTRA_OF_MODULE: dict[str, str] = {
     "matplotlib": "plots",
@@ -50,22 +54,59 @@ def missing(*modules: str) -> list[str]:
     return absent
 
 
+@functools.cache
+def _installed_from() -> tuple[str, bool]:
+    """(what to give pip, editable?): the checkout this install came from, else ``sma-gym``."""
+    origin: dict = {}
+    # The first installed copy that records where it came from (a stray sma_gym.egg-info
+    # in a checkout's folder records nothing).
+    for dist in importlib.metadata.distributions(name="sma-gym"):
+        text = dist.read_text("direct_url.json")
+        if text:
+            try:
+                origin = json.loads(text)
+            except ValueError:
+                continue
+            break
+    url = urlparse(origin.get("url", ""))
+    if url.scheme == "file":
+        return unquote(url.path), bool(origin.get("dir_info", {}).get("editable"))
+    return "sma-gym", False
+
+
 def install_hint(modules: list[str], extra: str | None = None) -> str:
-    """``pip install 'sma-gym[train]'`` for the extra(s) that install ``modules``."""
+    """The ``pip install`` command that adds the extra(s) installing ``modules``: for the
+    checkout it was installed from (``pip install -e '/path/to/sma-gym[train]'``), else from
+    the index. The ``train`` extra brings torch, whose default wheel on Linux is a multi-GB
+    CUDA build: the hint says so."""
     extras = [extra] if extra else sorted({EXTRA_OF_MODULE.get(m, "all") for m in modules})
-    return f"pip install 'sma-gym[{','.join(extras)}]'"
+    where, editable = _installed_from()
+    command = f"pip install {'-e ' if editable else ''}'{where}[{','.join(extras)}]'"
+    if "train" in extras:
+        command += " (CPU only: install torch first from https://download.pytorch.org/whl/cpu, see the README)"
+    return command
 
 
-def extra_error(error: ModuleNotFoundError, purpose: str, extra: str | None = None) -> ModuleNotFoundError:
+def extra_error(
+    error: ModuleNotFoundError, purpose: str, extra: str | None = None, modules: tuple[str, ...] = ()
+) -> ModuleNotFoundError:
     """For ``except ModuleNotFoundError as err: raise extra_error(err, ...) from err`` around
-    module-level imports: a :class:`MissingExtraError` naming the extra when the missing
-    module belongs to one, else ``error`` itself (a real bug stays visible)."""
+    module-level imports: a :class:`MissingExtraError` naming every missing one of ``modules``
+    (and the one that failed) and the extra to install, when the failed module belongs to an
+    extra; else ``error`` itself (a real bug stays visible)."""
     top = (error.name or "").split(".")[0]
     if top not in EXTRA_OF_MODULE:
         return error
-    name = DISTRIBUTION_OF_MODULE.get(top, top)
-    hint = install_hint([top], extra)
-    return MissingExtraError(f"{purpose} needs {name}, which the lean install of sma-gym leaves out: {hint}", top, hint)
+    absent = list(dict.fromkeys([top, *missing(*modules)]))
+    return _missing_extra(purpose, absent, extra)
+
+
+def _missing_extra(purpose: str, absent: list[str], extra: str | None) -> MissingExtraError:
+    names = ", ".join(DISTRIBUTION_OF_MODULE.get(m, m) for m in absent)
+    hint = install_hint(absent, extra)
+    return MissingExtraError(
+        f"{purpose}: {names} not installed (the lean install leaves it out): {hint}", absent[0], hint
+    )
 
 
 def require(*modules: str, purpose: str, extra: str | None = None) -> None:
@@ -76,8 +117,4 @@ def require(*modules: str, purpose: str, extra: str | None = None) -> None:
     """
     absent = missing(*modules)
     if absent:
-        names = ", ".join(DISTRIBUTION_OF_MODULE.get(m, m) for m in absent)
-        hint = install_hint(absent, extra)
-        raise MissingExtraError(
-            f"{purpose} needs {names}, which the lean install of sma-gym leaves out: {hint}", absent[0], hint
-        )
+        raise _missing_extra(purpose, absent, extra)

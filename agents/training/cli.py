@@ -23,8 +23,8 @@ def main(argv: list[str] | None = None) -> int:
     """Run ``train.py`` with ``argv``; 0 on success, 2 (message on stderr) on a bad option,
     1 if seeds of a ``--seeds`` sweep failed."""
     try:
+        args = parse_args(argv)  # --help works without the extra
         require(*TRAIN_NEEDS, purpose="train.py", extra="train")
-        args = parse_args(argv)
         if args.seeds is not None or args.workers is not None:
             from sma_gym_agents.training.sweep import check_sweep_args, sweep_main
 
