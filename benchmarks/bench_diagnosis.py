@@ -356,6 +356,17 @@ def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str,
         heldout_nominal_refit=first.get("nominal_refit_heldout_normalised_rms"),
         heldout_final=last.get("heldout_normalised_rms"),
         parameters_at_bounds=first.get("parameters_at_bounds", []),
+        # Every round's candidates in brief: why a name was or was not given.
+        round_candidates=[
+            [
+                {
+                    k: (round(c[k], 4) if isinstance(c.get(k), float) else c.get(k))
+                    for k in ("name", "delta_bic", "heldout_normalised_rms", "heldout_gain", "supported", "inert")
+                }
+                for c in r["candidates"]
+            ]
+            for r in result.rounds
+        ],
         position_rms_before_m=result.gap_before.get("heldout", {}).get("position"),
         position_rms_after_m=result.gap_after.get("heldout", {}).get("position"),
         noise=result.noise,
