@@ -27,8 +27,11 @@ Conventions. Error e = r - x on the true position (mm). Step: the report's 8 mm 
 over the last second, reported as "oscillates" when the position still moves by more
 than 0.1 mm peak to peak there. Sine: 30 s (three periods), heating / cooling errors are
 the signed e of largest magnitude while r rises / falls, over the last two periods; RMS
-over the same window. Step RMS over the whole run. Baselines run at the report's 1 kHz;
-a trained agent at the control period it was trained with. Sensor noise: 2 um (the report's
+over the same window. Step RMS over the whole run. Baselines run at the report's 1 kHz
+with the PWM resolved (``pwm_mode="resolved"``: the report's FPGA latches the duty once per
+PWM period and samples the position at the period's end, §3.3-3.4, so a sample reaches the
+wire 2 ms later) and their position filter at 11 Hz (docs/model.md §10); a trained agent at the control period and PWM mode it
+was trained with. Sensor noise: 2 um (the report's
 controllers filter their input against noise, so there should be some).
 """
 
@@ -43,7 +46,16 @@ from typing import Any
 import numpy as np
 
 from sma_gym_agents.bank import bank_policy
-from sma_gym_agents.controllers import ALL_SPECS, PID, VSC3, VSC4, ControllerSpec, spec_by_label, with_feedforward
+from sma_gym_agents.controllers import (
+    ALL_SPECS,
+    PID,
+    REPORT_FILTER_CUTOFF_HZ,
+    VSC3,
+    VSC4,
+    ControllerSpec,
+    spec_by_label,
+    with_feedforward,
+)
 from sma_gym_agents.policies import ControllerPolicy, SelfSensingPolicy
 from sma_gym_agents.trained import AgentPolicy
 
@@ -56,6 +68,9 @@ EVAL_NOISE_M = 2e-6
 DEFAULT_SEEDS = (0, 1, 2)
 BASELINE_PERIOD_S = 1e-3
 OSCILLATION_P2P_M = 0.1e-3
+BASELINE_ENV_KWARGS = {"control_period_s": BASELINE_PERIOD_S, "pwm_mode": "resolved"}
+"""The report's controllers run with its loop timing: a 1 kHz loop, the PWM resolved (and
+their position filter at ``REPORT_FILTER_CUTOFF_HZ``, docs/model.md §10)."""
 
 TABLE_6_1 = {
     # controller: (overshoot, steady-state error, max error heating, max error cooling) [mm]
@@ -134,7 +149,11 @@ def baseline(spec: ControllerSpec | str, self_sensing: bool = False) -> PolicyEn
             lambda env, s=s: SelfSensingPolicy(s, env),
             env_id="SMASelfSensing-v0",
         )
-    return PolicyEntry(s.label, lambda env, s=s: ControllerPolicy(s, env))
+    return PolicyEntry(
+        s.label,
+        lambda env, s=s: ControllerPolicy(s, env, filter_cutoff_hz=REPORT_FILTER_CUTOFF_HZ),
+        env_kwargs=dict(BASELINE_ENV_KWARGS),
+    )
 
 
 def bank_entry(spec: ControllerSpec | str, scheme: str) -> PolicyEntry:
@@ -610,7 +629,12 @@ def run_chapter_9(
                 entry.name,
                 entry.make,
                 env_id="SMAMultiplexed-v0",
-                env_kwargs={**entry.env_kwargs, "n_actuators": n, "cycling_frequency_hz": f},
+                # The multiplexed env is always PWM-resolved: it takes no pwm_mode.
+                env_kwargs={
+                    **{k: v for k, v in entry.env_kwargs.items() if k != "pwm_mode"},
+                    "n_actuators": n,
+                    "cycling_frequency_hz": f,
+                },
                 frame_stack=entry.frame_stack,
                 kind=entry.kind,
             )

@@ -51,14 +51,15 @@ def test_sb3_evaluate_policy_runs_a_baseline_unchanged_and_it_restarts_each_epis
     assert np.isfinite(rewards[0]) and rewards[0] > -1500
 
 
-def test_t6_vsc1_oscillation_is_a_known_gap_of_the_nominal_model(table61):
-    """Known gap (Table 6.1 rows B6/B26): the report's VSC1 oscillates by about a millimetre.
-    Since the hysterons of the nominal model start back within a kelvin of a reversal, the
-    simulated bang-bang loop only chatters (well under 0.1 mm peak to peak: 0.1's full 15 K
-    backlash made it oscillate). When a model change brings the oscillation back, this test
-    fails: restore the old assertion (p2p > 0.1 mm, no steady state) and the docs."""
+def test_t6_vsc1_oscillates_and_overshoots_like_the_reports(table61):
+    """Table 6.1 rows B5/B6, B25/B26: the simple switch never settles (more than 0.1 mm peak
+    to peak, no steady-state error) and overshoots about as much as the PID. It needs the
+    loop's lag: the controllers' 11 Hz filter and the report's 500 Hz PWM latched per period
+    (without them the hysterons damp the bang-bang loop to a 0.03 mm chatter)."""
     for p in ("VSC1", "VSC1 + FF"):
-        assert v(table61, p, "step", "oscillation_p2p_m") < 0.1e-3
+        assert v(table61, p, "step", "oscillation_p2p_m") > 0.1e-3
+        assert np.isnan(v(table61, p, "step", "steady_state_error_m"))
+        assert v(table61, p, "step", "overshoot_m") > 0.5e-3
 
 
 def test_t6_vsc3_has_no_overshoot_but_a_steady_state_error(table61):
@@ -81,10 +82,10 @@ def test_t6_feedforward_removes_vsc3s_steady_state_error(table61):
 def test_t6_pid_overshoots_most_and_the_ordering_is_the_reports(table61):
     over = {p: v(table61, p, "step", "overshoot_m") for p in ("PID", "VSC2", "VSC3", "VSC4", "PID + FF", "VSC4 + FF")}
     assert over["PID"] > over["VSC3"] + 0.3e-3
-    # Known gap (row Q4): the report's VSC2 overshoots 0.381 mm; in the nominal model its
-    # boundary layer stops it without overshoot, so the order is PID > VSC4 > VSC2 = VSC3.
-    assert over["PID"] > over["VSC4"] > over["VSC3"]
-    assert over["VSC2"] < 0.05e-3, "VSC2 overshoots again: restore PID > VSC2 > VSC4 > VSC3 (Q4)"
+    # Row Q4: PID > VSC2 > VSC4 > VSC3. VSC2 overshoots its 1 mm boundary layer only through
+    # the loop's lag (row B9, which the controllers' filter is identified from: 0.381 mm).
+    assert over["PID"] > over["VSC2"] > over["VSC4"] > over["VSC3"]
+    assert 0.2e-3 < over["VSC2"] < 0.6e-3
     assert over["PID + FF"] >= over["PID"] and over["VSC4 + FF"] > over["VSC4"]
     # The PID's steady-state error goes to zero.
     assert abs(v(table61, "PID", "step", "steady_state_error_m")) < 0.03e-3
@@ -135,9 +136,12 @@ def test_t7_five_volts_gives_the_vscs_a_steady_state_error_and_the_pid_less_over
 
 
 def test_t7_at_fifteen_volts_the_vscs_overshoot_a_quarter_of_the_pid(chapter7):
+    """§7.2 (row 7k): the VSCs overshoot, about a quarter as much as the PID (PID / mean VSC
+    within a factor 1.5 of 4, the fidelity row's reading of "about")."""
     pid = c7(chapter7, "PID", "15 V", "step", "overshoot_m")
-    for p in ("VSC3", "VSC4"):
-        assert c7(chapter7, p, "15 V", "step", "overshoot_m") < pid / 4
+    vsc = [c7(chapter7, p, "15 V", "step", "overshoot_m") for p in ("VSC3", "VSC4")]
+    assert min(vsc) > 0.0
+    assert 4.0 / 1.5 <= pid / np.mean(vsc) <= 4.0 * 1.5
 
 
 def test_t7_the_half_millimetre_wire_is_too_slow_for_the_sine_while_cooling(chapter7):
