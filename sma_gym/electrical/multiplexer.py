@@ -57,7 +57,8 @@ class Multiplexer:
         return 1.0 / self.cycling_frequency_hz
 
     def layout(self, duties: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The pulse train of one cycle: (duty, pulse start), each of shape (n,), fractions of the cycle.
+        """The pulse train of one cycle: (duty, pulse start), fractions of the cycle, each of the
+        shape of ``duties``: (n,) for one bank, (..., n) for a batch of banks (laid out bank by bank).
 
         Fixed slots: duties clipped to [0, 1/n], every pulse at the start of its own slot
         (pulse start 0 of its phase-shifted period). Shared budget: duties clipped to [0, 1];
@@ -66,12 +67,12 @@ class Multiplexer:
         cycle's start in actuator order, so pulse j starts where pulse j - 1 ends.
         """
         duty = np.clip(np.asarray(duties, dtype=float), 0.0, self.duty_max)
-        if duty.shape != (self.n_actuators,):
-            raise ValueError(f"duties have shape {duty.shape}: expected ({self.n_actuators},)")
+        if duty.shape[-1:] != (self.n_actuators,):
+            raise ValueError(f"duties have shape {duty.shape}: expected (..., {self.n_actuators})")
         if self.scheme == "fixed_slots":
             return duty, np.zeros_like(duty)
         duty = scale_to_budget(duty)
-        start = np.cumsum(duty) - duty
+        start = np.cumsum(duty, axis=-1) - duty
         # Rounding of the running sum must not push a pulse past the cycle's end.
         start = np.clip(np.minimum(start, 1.0 - duty), 0.0, np.nextafter(1.0, 0.0))
         return duty, start

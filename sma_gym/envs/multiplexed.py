@@ -400,8 +400,8 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
         restart = self._ended.copy()
         duty = self.duty_for(a)
         if self.scheme == "shared_budget":
-            for b in range(m):
-                duty[b], self._start[b * n : (b + 1) * n] = self.multiplexer.layout(duty[b])
+            duty, start = self.multiplexer.layout(duty)  # every bank at once
+            self._start[:] = start.reshape(-1)
             self.sim.set_pulse_start(self._start)
         self._duty[0] = duty.reshape(-1)
         noise = None
