@@ -190,31 +190,3 @@ def test_a_better_fitting_candidate_that_also_generalises_is_left_to_the_next_ro
     lag = candidate(held, "sensor_lag", -1104.0, smooth(2, 27.7))
     r = judge(held, ref, [friction, lag])
     assert r.verdict == "effect" and r.effect == "coulomb_friction"
-
-
-def test_heldout_blocks_are_stretches_of_time_with_every_output_in_them():
-    """A sensor lag moves only the position reading: blocks cut along the stacked residual
-    vector held the resistance and current alone, where no candidate differs, and a 86 %
-    held-out gain came out 'not consistent' (named ambiguous with a supply sag that changed
-    nothing)."""
-    n = 1000
-    trace = SimpleNamespace(
-        trace=SimpleNamespace(t=np.arange(n) * 1e-3),
-        outputs={name: np.zeros(n) for name in ("position", "resistance", "current")},
-        mask=np.ones(n, dtype=bool),
-    )
-    blocks = workflow._time_blocks(SimpleNamespace(traces=[trace]), 3 * n)
-    for k in range(workflow.SEPARATION_BLOCKS):
-        rows = np.flatnonzero(blocks == k)
-        assert {int(r // n) for r in rows} == {0, 1, 2}  # every output in every block
-    # And the judgement on such data: the position 3x better everywhere, the electrical
-    # outputs the same up to small differences, is a consistent preference.
-    held = HeldOut()
-    held.traces = [trace]
-    rng = np.random.default_rng(0)
-    electrical = 5.0 * rng.normal(size=2 * n)  # model errors well above the noise
-    ref = candidate(held, "nominal refit", 0.0, np.r_[15.0 * rng.normal(size=n), electrical])
-    lag = candidate(held, "sensor_lag", -7800.0, np.r_[5.0 * rng.normal(size=n), electrical])
-    other = candidate(held, "supply_sag", 8.0, np.r_[15.0 * rng.normal(size=n), electrical + 1e-3])
-    r = judge(held, ref, [lag, other])
-    assert r.verdict == "effect" and r.effect == "sensor_lag"

@@ -16,10 +16,10 @@
      residuals' correlation time (smooth model errors are not independent samples);
    * on the held-out data it lowers the normalised RMS error by at least
      ``HELDOUT_GAIN`` (10 %; ``LATER_ROUND_GAIN``, 25 %, from the second round on), the
-     preference is consistent along the held-out data (the log ratio of summed squared
-     residuals over ``SEPARATION_BLOCKS`` (8) consecutive stretches of time is
-     ``SEPARATION_T`` (2) standard errors above zero: one held-out file holds only a few
-     independent events of a smooth model error), and it is better there than the model as given, unrefitted
+     preference is consistent along the held-out data (the log ratio of mean squared
+     residuals over ``SEPARATION_BLOCKS`` (8) consecutive blocks is ``SEPARATION_T`` (2)
+     standard errors above zero: one held-out file holds only a few independent events of
+     a smooth model error), and it is better there than the model as given, unrefitted
      (a "correction" that makes held-out data worse than no correction is never a finding);
    * from the second round on, the reference is also every effect found so far in each of
      its other forms (an effect's form is as uncertain as its size: a later candidate
@@ -88,8 +88,8 @@ gain; the hidden effects had gained 49 % and 85 %)."""
 SEPARATION_BLOCKS = 8
 SEPARATION_T = 2.0
 """How consistently the held-out data must prefer one model to another before the
-preference counts (see ``_indistinguishable``): over 8 consecutive stretches of the
-held-out data, a mean log ratio of summed squared residuals at least 2 standard errors above
+preference counts (see ``_indistinguishable``): over 8 consecutive blocks of the held-out
+residuals, a mean log ratio of mean squared residuals at least 2 standard errors above
 zero (t with 7 degrees of freedom: about a 4 % chance between equally good models). It
 decides whether the best candidate beats the refit at all (else it is not supported) and
 whether it beats each runner-up (else the verdict is ambiguous)."""
@@ -581,9 +581,8 @@ def _indistinguishable(
     """The held-out data cannot tell ``other`` from ``best``: its held-out RMS is within
     ``margin`` of the best's, or the preference is not consistent along the held-out data.
 
-    The held-out data are cut into ``SEPARATION_BLOCKS`` consecutive stretches of time
-    (every output measured in a stretch together) and the log of the ratio of the two
-    models' summed squared residuals taken in each; the
+    The held-out residuals are cut into ``SEPARATION_BLOCKS`` consecutive blocks and the
+    log of the ratio of the two models' mean squared residuals taken in each; the
     preference counts when the mean log ratio is at least ``SEPARATION_T`` standard errors
     above zero (a t statistic over the blocks). Blocks rather than samples because model
     errors are smooth and come in events (a step, a reversal): a held-out file holds only
@@ -594,39 +593,20 @@ def _indistinguishable(
         return True
     rb = held.residual_matrix(best.fit.parameters, [best.fit.values])[:, 0]
     ro = held.residual_matrix(other.fit.parameters, [other.fit.values])[:, 0]
-    blocks = _time_blocks(held, rb.size)
-    differs = rb != ro  # readings neither model changes (a constant supply) tell nothing
-    logs = []
-    for k in range(SEPARATION_BLOCKS):
-        pick = differs & (blocks == k)
-        if pick.any():
-            logs.append(math.log(max(float(np.sum(ro[pick] ** 2)), 1e-300) / max(float(np.sum(rb[pick] ** 2)), 1e-300)))
-    if len(logs) < 3:
+    differs = rb != ro  # outputs neither model changes (a constant supply) tell nothing
+    rb, ro = rb[differs], ro[differs]
+    if rb.size < 2 * SEPARATION_BLOCKS:
         return True
-    values = np.array(logs)
-    mean, spread = float(np.mean(values)), float(np.std(values, ddof=1))
+    logs = np.array(
+        [
+            math.log(max(float(np.mean(o**2)), 1e-300) / max(float(np.mean(b**2)), 1e-300))
+            for b, o in zip(np.array_split(rb, SEPARATION_BLOCKS), np.array_split(ro, SEPARATION_BLOCKS))
+        ]
+    )
+    mean, spread = float(np.mean(logs)), float(np.std(logs, ddof=1))
     if spread == 0.0:
         return mean <= 0.0
-    return mean / (spread / math.sqrt(len(values))) < SEPARATION_T
-
-
-def _time_blocks(held: fitting.Problem, size: int) -> np.ndarray:
-    """The time block (0 .. ``SEPARATION_BLOCKS`` - 1) of every row of ``held``'s residual
-    vector. A block is a stretch of time with every output measured in it: an effect that
-    acts on one output (a sensor lag moves only the position reading) must not be judged
-    on blocks that hold another output alone."""
-    parts = []
-    traces = getattr(held, "traces", [])
-    count = len(traces)
-    for j, d in enumerate(traces):
-        n = max(1, len(d.trace.t))
-        for measured in d.outputs.values():
-            idx = np.flatnonzero(d.mask & np.isfinite(measured))
-            parts.append(np.floor((j + idx / n) / count * SEPARATION_BLOCKS).astype(int))
-    out = np.concatenate(parts) if parts else np.zeros(0, dtype=int)
-    if out.size != size:  # a layout this helper does not know: blocks in order of the rows
-        out = np.floor(np.arange(size) / max(size, 1) * SEPARATION_BLOCKS).astype(int)
-    return np.clip(out, 0, SEPARATION_BLOCKS - 1)
+    return mean / (spread / math.sqrt(SEPARATION_BLOCKS)) < SEPARATION_T
 
 
 def _at_bounds(fit: fitting.Fit) -> list[str]:
