@@ -85,3 +85,25 @@ def test_one_saved_policy_acts_on_banks_of_1_4_and_16(tmp_path):
             # One model for every actuator: actuator j's action is the model's on its row.
             row_action, _ = loaded.predict(agent.view.rows(obs)[n - 1 : n], deterministic=True)
             assert action[n - 1] == pytest.approx(float(row_action[0, 0]), abs=1e-6)
+
+
+def test_bank_vec_env_calls_a_method_only_on_the_banks_the_indices_touch():
+    from sma_gym_agents.training.envs import BankVecEnv
+
+    class Banks:  # two banks of 3 actuators that record which banks a method ran on
+        num_envs = 2
+        calls: list[list[int]] = []
+
+        def get_attr(self, name, indices=None):
+            return [{"n": 3, "scheme": "fixed_slots"}.get(name)] * 2  # render_mode: None
+
+        def env_method(self, name, *args, indices=None, **kwargs):
+            self.calls.append(list(indices))
+            return [f"bank {b}" for b in indices]
+
+    inner = Banks()
+    venv = BankVecEnv(inner)
+    assert venv.env_method("reset", indices=[4, 5]) == ["bank 1", "bank 1"]
+    assert venv.env_method("reset", indices=2) == ["bank 0"]
+    assert inner.calls == [[1], [0]]
+    assert venv.env_method("reset") == ["bank 0"] * 3 + ["bank 1"] * 3 and inner.calls[-1] == [0, 1]

@@ -183,8 +183,13 @@ class BankVecEnv(VecEnv):
         self.venv.set_attr(attr_name, value, sorted(set(self._banks(indices))))
 
     def env_method(self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any) -> list[Any]:
-        results = self.venv.env_method(method_name, *method_args, **method_kwargs)
-        return [results[b] for b in self._banks(indices)]
+        # Called once per bank the indices touch, never on the other banks (a method may act:
+        # reset, set_options).
+        banks = self._banks(indices)
+        touched = sorted(set(banks))
+        results = self.venv.env_method(method_name, *method_args, indices=touched, **method_kwargs)
+        by_bank = dict(zip(touched, results))
+        return [by_bank[b] for b in banks]
 
     def env_is_wrapped(self, wrapper_class: Any, indices: Any = None) -> list[bool]:
         # Monitor: this class reports each actuator's episodes as a Monitor would ("episode" info).
