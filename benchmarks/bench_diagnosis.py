@@ -13,6 +13,14 @@ as correct when it names exactly the hidden effect, or "none" for clean data), t
 
     python benchmarks/bench_diagnosis.py [--seeds 3] [--json] [--max-rounds 3]
 
+``--pairs N`` hides two effects at once (issue 12): the library's pairs in a seeded shuffled
+order, each in its alternative form at its typical size, our generator at 1 kHz with every
+output, nominal perturbed 5 %; it counts the cases whose verdict names both and nothing
+else (goal: >= 80 % of 20), confident wrong names, and the held-out gap at the last round
+against 2x the noise.
+
+    python benchmarks/bench_diagnosis.py --pairs 20 [--seed 0] [--max-rounds 3] [--out pairs.md]
+
 ``--grid N`` runs instead a balanced fractional-factorial benchmark of N cases that the
 diagnosis was not tuned to (issue 12, "a benchmark that cannot be gamed by its own
 generator"). Every case draws, with a seeded RNG,
@@ -557,6 +565,202 @@ def run_grid(
     }
 
 
+# ------------------------------------------------------------------------------------------
+# --pairs: two effects hidden at once (issue 12)
+# ------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PairCase:
+    """Two library effects hidden together in their alternative forms, at their typical size."""
+
+    index: int
+    first: str
+    second: str
+    fit_excitation: str
+    heldout_excitation: str
+    seed: int
+
+    @property
+    def truth(self) -> tuple[str, str]:
+        return (self.first, self.second)
+
+
+def draw_pairs(n: int, seed: int = 0) -> list[PairCase]:
+    """``n`` cases: the library's unordered pairs in a seeded shuffled order (every pair once
+    before any repeats), each with a fitted excitation drawn in balanced blocks and a
+    different held-out one."""
+    if n < 1:
+        raise ValueError(f"pairs = {n!r}: expected at least 1 case")
+    names = list(EFFECTS)
+    pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1 :]]
+    rng = np.random.default_rng([seed, 2])
+    order = _blocked(pairs, n, rng)
+    fits = _blocked(EXCITATIONS, n, np.random.default_rng([seed, 2, _FIT_EXCITATION]))
+    shifts = _blocked(range(1, len(EXCITATIONS)), n, np.random.default_rng([seed, 2, _HELDOUT_SHIFT]))
+    seeds = np.random.default_rng([seed, 2, _DATA_SEED]).integers(0, 2**31, size=n)
+    return [
+        PairCase(
+            index=i,
+            first=order[i][0],
+            second=order[i][1],
+            fit_excitation=fits[i],
+            heldout_excitation=EXCITATIONS[(EXCITATIONS.index(fits[i]) + shifts[i]) % len(EXCITATIONS)],
+            seed=int(seeds[i]),
+        )
+        for i in range(n)
+    ]
+
+
+def _alternative_form(effect: str) -> str:
+    forms = EFFECTS[effect].forms
+    return forms[1] if len(forms) > 1 else "default"
+
+
+def pair_data(case: PairCase, nominal: ModelConfig) -> tuple[MeasuredTrace, MeasuredTrace]:
+    """The fitted and held-out traces of ``case`` (our generator, 1 kHz, all outputs)."""
+    first = EFFECTS[case.first]
+    truth = nominal.with_effect(
+        case.first, {p.name: p.typical for p in first.parameters}, _alternative_form(case.first)
+    )
+
+    def trace(excitation: str, duration_s: float) -> MeasuredTrace:
+        spec = SynthSpec(
+            truth,
+            effect=case.second,
+            form=_alternative_form(case.second),
+            excitation=excitation,
+            duration_s=duration_s,
+            perturb=PERTURB,
+            seed=case.seed,
+        )
+        return generate(spec)[0]
+
+    return trace(case.fit_excitation, FIT_DURATION_S), trace(case.heldout_excitation, HELDOUT_DURATION_S)
+
+
+def classify_pair(truth: Sequence[str], verdict: str, named: Sequence[str]) -> str:
+    """both / one (the other missed, nothing wrong named) / confident_wrong / ambiguous / miss."""
+    if verdict in ("effect", "effects"):
+        if any(name not in truth for name in named):
+            return "confident_wrong"
+        return "both" if set(named) == set(truth) else "one"
+    if verdict == "ambiguous" and any(name in truth for name in named):
+        return "ambiguous"
+    return "miss"
+
+
+def run_pairs(
+    n: int, seed: int = 0, max_rounds: int = DEFAULT_MAX_ROUNDS, budget_s: float = math.inf
+) -> dict[str, Any]:
+    """Run ``n`` two-effect cases and summarise: both named, confident wrong names, the
+    held-out gap at the last round against the noise."""
+    cases = draw_pairs(n, seed)
+    nominal = ModelConfig()
+    started = time.perf_counter()
+    records: list[dict[str, Any]] = []
+    for case in cases:
+        if time.perf_counter() - started > budget_s:
+            print(f"budget of {budget_s / 60:.0f} min spent: {len(records)} of {n} cases run", file=sys.stderr)
+            break
+        record: dict[str, Any] = asdict(case)
+        t0 = time.perf_counter()
+        try:
+            fit, held = pair_data(case, nominal)
+            result = diagnose([fit], [held], nominal, max_rounds=max_rounds)
+        except Exception as exc:
+            record.update(answer=f"error: {type(exc).__name__}: {exc}", category="miss", named=[], seconds=0.0)
+        else:
+            named = list(result.effects_found) if result.verdict in ("effect", "effects") else []
+            if result.verdict == "ambiguous":
+                named = list(result.effect)
+            last = result.rounds[-1] if result.rounds else {}
+            record.update(
+                answer=answer_label(result),
+                verdict=result.verdict,
+                named=named,
+                category=classify_pair(case.truth, result.verdict, named),
+                round_verdicts=[r["verdict"] for r in result.rounds],
+                round_effects=[r.get("effect") for r in result.rounds],
+                heldout_final=last.get("heldout_normalised_rms"),
+                seconds=time.perf_counter() - t0,
+            )
+        records.append(record)
+        print(
+            f"[{(time.perf_counter() - started) / 60:5.1f} min] pair {case.index:2d} {case.first}+{case.second} "
+            f"{case.fit_excitation}->{case.heldout_excitation} -> {record['answer']} [{record['category']}] "
+            f"held-out {record.get('heldout_final') or math.nan:.2f}x noise ({record['seconds']:.0f} s)",
+            file=sys.stderr,
+            flush=True,
+        )
+    cats = Counter(r["category"] for r in records)
+    both, wrong = cats["both"], cats["confident_wrong"]
+    finals = [r["heldout_final"] for r in records if r.get("heldout_final") is not None]
+    summary = {
+        "cases": len(records),
+        "categories": dict(cats),
+        "both_named_rate": _fraction(both, len(records)),
+        "both_named_ci95": wilson(both, len(records)),
+        "confident_wrong_rate": _fraction(wrong, len(records)),
+        "heldout_final_within_2x_noise": sum(f <= NOISE_STOP for f in finals),
+        "median_seconds": statistics.median([r["seconds"] for r in records]) if records else None,
+    }
+    summary["goals"] = {
+        "both effects named in >= 80 % of the cases": {
+            "value": summary["both_named_rate"],
+            "met": (summary["both_named_rate"] or 0.0) >= 0.8,
+        },
+        "held-out gap at the last round <= 2x noise on every case": {
+            "value": f"{summary['heldout_final_within_2x_noise']}/{len(records)}",
+            "met": summary["heldout_final_within_2x_noise"] == len(records) and bool(records),
+        },
+    }
+    return {
+        "settings": {
+            "pairs": n,
+            "seed": seed,
+            "max_rounds": max_rounds,
+            "fit_duration_s": FIT_DURATION_S,
+            "heldout_duration_s": HELDOUT_DURATION_S,
+            "perturb": PERTURB,
+            "sample_rate_hz": 1000,
+            "sensors": "all",
+            "wall_seconds": time.perf_counter() - started,
+            "source": _source_state(),
+        },
+        "summary": summary,
+        "cases": records,
+    }
+
+
+def pairs_markdown(result: dict[str, Any]) -> str:
+    """The two-effect benchmark as markdown: summary, goals, one row per case."""
+    s = result["summary"]
+    ci = s["both_named_ci95"]
+    lines = [
+        f"# Two hidden effects: {s['cases']} cases (seed {result['settings']['seed']})",
+        "",
+        f"both named: {s['categories'].get('both', 0)}/{s['cases']}"
+        + (f" (95 % interval {ci[0]:.0%}-{ci[1]:.0%})" if ci else "")
+        + f"; confident wrong names: {s['categories'].get('confident_wrong', 0)}; "
+        f"held-out within 2x noise at the last round: {s['heldout_final_within_2x_noise']}/{s['cases']}",
+        "",
+    ]
+    lines += [f"- {'met' if g['met'] else 'MISSED'}: {name} ({g['value']})" for name, g in s["goals"].items()]
+    lines += [
+        "",
+        "| # | hidden | fitted -> held out | answer | category | held-out / noise | s |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in result["cases"]:
+        final = r.get("heldout_final")
+        lines.append(
+            f"| {r['index']} | {r['first']} + {r['second']} | {r['fit_excitation']} -> {r['heldout_excitation']} | "
+            f"{r['answer']} | {r['category']} | {'' if final is None else f'{final:.2f}'} | {r['seconds']:.0f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def merge(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """One report from several runs of the same grid (e.g. one continued with ``--first``)."""
     settings = dict(results[0]["settings"])
@@ -701,11 +905,22 @@ def main() -> int:
         "--budget-min", type=float, default=math.inf, help="grid: start no new case after this many minutes"
     )
     parser.add_argument("--first", type=int, default=0, help="grid: skip the first cases (continue a run cut short)")
-    parser.add_argument("--out", type=Path, help="grid: write the report as markdown to this file")
+    parser.add_argument(
+        "--pairs", type=int, default=0, metavar="N", help="run N cases with two effects hidden at once instead"
+    )
+    parser.add_argument("--out", type=Path, help="grid / pairs: write the report as markdown to this file")
     parser.add_argument(
         "--merge", type=Path, nargs="+", metavar="JSON", help="report on saved --grid --json runs together, run nothing"
     )
     args = parser.parse_args()
+    if args.pairs:
+        result = run_pairs(args.pairs, args.seed, args.max_rounds, args.budget_min * 60.0)
+        markdown = pairs_markdown(result)
+        if args.out is not None:
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            args.out.write_text(markdown)
+        print(json.dumps(result, indent=2) if args.json else markdown)
+        return 0
     if args.grid or args.merge:
         generators = GENERATORS if args.generator == "both" else (args.generator,)
         if args.merge:

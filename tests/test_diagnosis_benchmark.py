@@ -102,3 +102,30 @@ def test_scoring_separates_right_not_wrong_and_confidently_wrong(bench: ModuleTy
     assert classify("none", "effect", ["latent_heat"]) == "confident_wrong"
     assert classify("none", "unexplained", []) == "miss"
     assert classify("latent_heat", "none", []) == "miss"
+
+
+def test_pairs_cover_every_pair_once_before_repeating_and_hold_out_another_excitation(bench: ModuleType) -> None:
+    """``--pairs``: the library's unordered pairs each once in the first len(pairs) cases,
+    two different effects per case, reproducible from the seed, held out on another
+    excitation, fitted excitations balanced."""
+    names = list(EFFECTS)
+    n_pairs = len(names) * (len(names) - 1) // 2
+    cases = bench.draw_pairs(n_pairs + 5, seed=1)
+    assert cases == bench.draw_pairs(n_pairs + 5, seed=1) and cases != bench.draw_pairs(n_pairs + 5, seed=2)
+    first_round = {frozenset(c.truth) for c in cases[:n_pairs]}
+    assert len(first_round) == n_pairs and all(len(p) == 2 for p in first_round)
+    assert all(c.fit_excitation != c.heldout_excitation for c in cases)
+    counts = Counter(c.fit_excitation for c in cases[:20])
+    assert max(counts.values()) - min(counts.values()) <= 1
+    with pytest.raises(ValueError, match="pairs = 0"):
+        bench.draw_pairs(0)
+
+
+def test_pair_scoring_counts_both_only_when_nothing_else_is_named(bench: ModuleType) -> None:
+    truth = ("sensor_lag", "latent_heat")
+    assert bench.classify_pair(truth, "effects", ["latent_heat", "sensor_lag"]) == "both"
+    assert bench.classify_pair(truth, "effect", ["sensor_lag"]) == "one"
+    assert bench.classify_pair(truth, "effects", ["sensor_lag", "abbe_offset"]) == "confident_wrong"
+    assert bench.classify_pair(truth, "ambiguous", ["sensor_lag", "supply_sag"]) == "ambiguous"
+    assert bench.classify_pair(truth, "ambiguous", ["abbe_offset", "supply_sag"]) == "miss"
+    assert bench.classify_pair(truth, "unexplained", []) == "miss"
