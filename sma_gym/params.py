@@ -97,7 +97,11 @@ class Wire:
     have the report's sign and are within a factor 2 (0.1's play law: 2); wider
     spreads steepen the holding duty against position towards fig. 6.4 (2.8 /m at 10 K,
     6.4 /m at 24 K) but make the wire too slow to extend in the 0.1 Hz sine (cooling errors
-    of -0.5 mm at 16 K, -1.2 mm at 24 K against the report's -0.1 mm)."""
+    of -0.5 mm at 16 K, -1.2 mm at 24 K against the report's -0.1 mm). Re-measured with the
+    report's loop in the harness (1 kHz, resolved PWM, 11 Hz filter; h0 and rho_A
+    recalibrated): 9 K passes 78 rows against 76 (gains PID + FF's and VSC2 + FF's cooling
+    errors and two statements, loses VSC3 + FF's cooling sign and a fan statement) but lowers
+    every step efficiency by 9 % (15 V: 0.38 against the report's 0.60 %), so 6 K stays."""
 
     hysteron_width_spread: float = 1.0
     """w [-] = 1.0: spread of the hysterons' loop widths, as a fraction of the major-loop
