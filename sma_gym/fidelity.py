@@ -502,20 +502,25 @@ def actuation_time_ms(data: dict[str, np.ndarray]) -> float:
 
 
 def fast_actuation_rows(data: dict[str, np.ndarray]) -> list[Row]:
-    # Table 3.1's speed is a datasheet figure, stroke over actuation time (9.5 mm / 50 ms):
-    # a mean speed while moving, not the peak of the velocity.
+    # Table 3.1's speed is the datasheet's own quotient of its stroke and its actuation time
+    # (9.5 mm / 50 ms = 190, quoted as 200 mm/s), so it is measured as that quotient: a wire
+    # whose actuation time passes (A6) passes it too, which the row says. The speed while
+    # moving (10-90 %) and the peak are printed beside it: a wire moves faster than the
+    # quotient once it has heated to its transformation, and the datasheet does not say so.
     stroke = _stroke_m()
-    speed = (
+    time_ms = actuation_time_ms(data)
+    moving = (
         0.8 * stroke / _crossing_time(data["time_s"][:, 0], data["position_m"][:, 0], 0.1 * stroke, 0.9 * stroke) * 1e3
     )
     peak = float(np.max(data["velocity_m_s"][:, 0])) * 1e3
     return [
-        numeric_row("A6", actuation_time_ms(data), "ms", "duty 1 at 30 V from rest: time to 90 % of the stroke"),
+        numeric_row("A6", time_ms, "ms", "duty 1 at 30 V from rest: time to 90 % of the stroke"),
         numeric_row(
             "A7",
-            speed,
+            stroke * 1e3 / (time_ms * 1e-3),
             "mm/s",
-            f"the same 30 V actuation: mean speed from 10 % to 90 % of the stroke (peak {fmt(peak)} mm/s)",
+            "the same 30 V actuation: stroke / actuation time (A6), the datasheet's own relation (9.5 mm / 50 ms); "
+            f"not independent of A6. While moving (10-90 %) {fmt(moving)} mm/s, peak {fmt(peak)} mm/s",
         ),
     ]
 
