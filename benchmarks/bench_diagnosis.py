@@ -351,7 +351,6 @@ def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str,
     else:
         named = []
     first = result.rounds[0] if result.rounds else {}
-    last = result.rounds[-1] if result.rounds else {}
     record.update(
         answer=answer_label(result),
         verdict=result.verdict,
@@ -362,7 +361,7 @@ def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str,
         # Held-out normalised RMS (1 = the noise): model as given, nominal refit, final model.
         heldout_as_given=first.get("as_given_heldout_normalised_rms"),
         heldout_nominal_refit=first.get("nominal_refit_heldout_normalised_rms"),
-        heldout_final=last.get("heldout_normalised_rms"),
+        heldout_final=final_heldout(result),
         parameters_at_bounds=first.get("parameters_at_bounds", []),
         # Every round's candidates in brief: why a name was or was not given.
         round_candidates=[
@@ -383,6 +382,21 @@ def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str,
         seconds_total=t2 - t0,
     )
     return record
+
+
+def final_heldout(result: Diagnosis) -> float | None:
+    """Held-out normalised RMS of the corrected model the diagnosis returns: the last
+    round's choice when it named one, else the previous round's, else (nothing found) the
+    nominal refit. A round that names nothing reports the model it started from, unrefitted,
+    as its own score, which is not what the user gets."""
+    if not result.rounds:
+        return None
+    last = result.rounds[-1]
+    if last["verdict"] in ("effect", "ambiguous"):
+        return last["heldout_normalised_rms"]
+    if result.effects_found:
+        return last["as_given_heldout_normalised_rms"]
+    return result.rounds[0]["nominal_refit_heldout_normalised_rms"]
 
 
 def _fraction(k: int, n: int) -> float | None:
@@ -674,7 +688,6 @@ def run_pairs(
             named = list(result.effects_found) if result.verdict in ("effect", "effects") else []
             if result.verdict == "ambiguous":
                 named = list(result.effect)
-            last = result.rounds[-1] if result.rounds else {}
             record.update(
                 answer=answer_label(result),
                 verdict=result.verdict,
@@ -682,7 +695,7 @@ def run_pairs(
                 category=classify_pair(case.truth, result.verdict, named),
                 round_verdicts=[r["verdict"] for r in result.rounds],
                 round_effects=[r.get("effect") for r in result.rounds],
-                heldout_final=last.get("heldout_normalised_rms"),
+                heldout_final=final_heldout(result),
                 seconds=time.perf_counter() - t0,
             )
         records.append(record)
