@@ -196,6 +196,8 @@ def _exact_unit_sum(weights: list[float]) -> list[float]:
 
 
 def _uniform_centres(spread_k: float, count: int) -> list[float]:
+    if spread_k == 0.0:
+        return [0.0] * count  # no spread (the effect's off value): no rescaling to do
     half_width = math.sqrt(3.0) * spread_k
     centres = [-half_width + (2 * k + 1) * half_width / count for k in range(count)]
     # Midpoints of equal bins have a slightly smaller spread; rescale to the exact std.
