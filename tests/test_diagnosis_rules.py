@@ -252,3 +252,30 @@ def test_cross_validation_never_shows_the_left_out_run_to_the_diagnosis(monkeypa
     for k, (fitted, held) in enumerate(seen):
         assert held == [] and id(traces[k]) not in fitted and len(fitted) == 2
     assert all(math.isfinite(f["position_rms_corrected_m"]) for f in cv["folds"])
+
+
+def test_the_report_names_a_pair_found_together_with_and_an_ambiguous_set_with_or():
+    from types import SimpleNamespace
+
+    from sma_gym.diagnosis.report import _round_lines
+
+    def rnd(number, verdict, effect):
+        return {
+            "round": number,
+            "verdict": verdict,
+            "effect": effect,
+            "nominal_refit_heldout_normalised_rms": 30.0,
+            "heldout_normalised_rms": 1.2,
+            "gap": {"heldout": {"position": 1e-4}},
+            "parameters_at_bounds": [],
+        }
+
+    text = "\n".join(
+        _round_lines(
+            SimpleNamespace(
+                rounds=[rnd(1, "effects", ["sensor_lag", "warm_surroundings"]), rnd(2, "ambiguous", ["a", "b"])]
+            )
+        )
+    )
+    assert "| 1 | effects | sensor_lag and warm_surroundings |" in text
+    assert "| 2 | ambiguous | a or b |" in text

@@ -138,14 +138,17 @@ def _round_lines(result: Diagnosis) -> list[str]:
         "## Rounds",
         "",
         "Each round refits the nominal parameters and the effects found so far with every remaining "
-        "candidate; it stops when nothing is supported, the verdict is ambiguous, or the held-out "
+        "candidate (an ambiguous round also fits its best names in pairs, and names a pair that beats each "
+        "member alone); it stops when nothing is supported, the verdict is ambiguous, or the held-out "
         "residual is within 2x the noise (normalised RMS 1 = noise).",
         "",
         "| round | verdict | effect | held-out normalised RMS (refit only -> with effect) | held-out position RMS | parameters at a bound |",
         "|---|---|---|---|---|---|",
     ]
     for r in result.rounds:
-        effect = r["effect"] if isinstance(r["effect"], str) or r["effect"] is None else " or ".join(r["effect"])
+        effect = r["effect"]
+        if not (isinstance(effect, str) or effect is None):  # a pair named together, or an ambiguous set
+            effect = (" and " if r["verdict"] == "effects" else " or ").join(effect)
         position = r["gap"]["heldout"].get("position", math.nan)
         bounds = "; ".join(r["parameters_at_bounds"]) or "none"
         lines.append(
