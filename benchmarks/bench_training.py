@@ -35,13 +35,12 @@ SHORT_STEPS = (4000, 12000)
 
 def gradient_step_seconds(fused: bool, steps: int = 200) -> float:
     """Seconds per SAC gradient step of the default networks on a 20-dimensional task."""
-    import gymnasium as gym
     import numpy as np
     import torch
     from stable_baselines3 import SAC
 
     torch.set_num_threads(1)
-    env = gym.wrappers.TimeLimit(_Box20(), 200)
+    env = _stand_in_env()
     kwargs = {"optimizer_kwargs": {"fused": True}} if fused else {}
     model = SAC(
         "MlpPolicy", env, batch_size=256, learning_starts=0, seed=0, policy_kwargs=dict(net_arch=[256, 256], **kwargs)
@@ -53,26 +52,24 @@ def gradient_step_seconds(fused: bool, steps: int = 200) -> float:
     return (time.perf_counter() - start) / steps
 
 
-class _Box20:
-    """A 20-feature, 1-action stand-in with the default env's sizes (no physics: part 1 times
-    the networks only)."""
+def _stand_in_env():
+    """A 20-feature, 1-action env with the default env's sizes and no physics: part 1 times
+    the networks only."""
+    import gymnasium as gym
+    import numpy as np
 
-    def __new__(cls):
-        import gymnasium as gym
-        import numpy as np
+    class StandIn(gym.Env):
+        observation_space = gym.spaces.Box(-1.0, 1.0, (20,), np.float32)
+        action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
 
-        class Box20(gym.Env):
-            observation_space = gym.spaces.Box(-1.0, 1.0, (20,), np.float32)
-            action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+        def reset(self, *, seed=None, options=None):
+            super().reset(seed=seed)
+            return self.observation_space.sample(), {}
 
-            def reset(self, *, seed=None, options=None):
-                super().reset(seed=seed)
-                return self.observation_space.sample(), {}
+        def step(self, action):
+            return self.observation_space.sample(), float(-abs(action[0])), False, False, {}
 
-            def step(self, action):
-                return self.observation_space.sample(), float(-abs(action[0])), False, False, {}
-
-        return Box20()
+    return gym.wrappers.TimeLimit(StandIn(), 200)
 
 
 def short_run(steps: int, folder: Path) -> dict:
