@@ -107,8 +107,8 @@ INERT_TOLERANCE = 1e-6
 JOINT_RIVALS = 3
 """An ambiguous round's best names (best first) whose pairs are fitted jointly: two effects
 hidden at once make each of them explain part of the residual, so the round sees rivals
-where there are two effects (measured: in 7 of 20 two-effect cases the ambiguous names
-held both hidden effects, 6 of them among the first three)."""
+where there are two effects (measured: 6 of 20 two-effect cases ended ambiguous in round
+1, each with both hidden effects among its first three names)."""
 NEEDS_ELECTRICAL = {
     "supply_sag": "a voltage or current measurement: on position data alone a supply sag and the wire's resistivity both only set the heating power",
 }
@@ -462,8 +462,9 @@ def _joint(
     in pairs. A pair is named when it beats each of its members as a single effect must
     beat the refit: on the fitted data by the BIC bar, on the held-out data by the gain
     bar, consistently along the held-out blocks (``_indistinguishable``), and better than
-    the model as given; the best such pair by held-out score wins. ``None``: the round
-    stays ambiguous. Effects whose only signature needs an electrical measurement that the
+    the model as given; the best such pair by held-out score wins (a pair's ``delta_bic``
+    and ``heldout_gain`` are relative to its better member). ``None``: the round stays
+    ambiguous. Effects whose only signature needs an electrical measurement that the
     data lack are left out (a pair cannot identify what one of them cannot)."""
     by_name = {c.name: c for c in r.candidates}
     names = [n for n in r.effect if problem.electrical or n not in NEEDS_ELECTRICAL][:JOINT_RIVALS]
