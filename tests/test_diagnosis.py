@@ -82,25 +82,26 @@ def test_clean_data_gives_no_missing_effect():
     assert not result.corrected_model.effects.active()
 
 
+def two_effects(truth: ModelConfig, effect: str, form: str, seed: int):
+    """Traces of ``truth`` (which carries one effect) with ``effect`` in ``form`` hidden on
+    top, nominal perturbed by 5 %: ``trace(excitation, seconds)``."""
+
+    def trace(excitation: str, seconds: float):
+        spec = SynthSpec(
+            truth, effect=effect, form=form, excitation=excitation, duration_s=seconds, perturb=0.05, seed=seed
+        )
+        return generate(spec)[0]
+
+    return trace
+
+
 def test_two_hidden_effects_are_named_one_per_round_and_nothing_more():
     """Sensor lag (second-order form) and Stribeck friction hidden together, nominal
     perturbed by 5 %: round 1 names one, round 2 the other with the first refitted, round 3
     finds nothing supported. The corrected model carries both; the rounds and the
     staircase are in the result."""
     truth = ModelConfig().with_effect("sensor_lag", {"time_constant_s": 0.05}, "second-order")
-
-    def trace(excitation, seconds):
-        spec = SynthSpec(
-            truth,
-            effect="coulomb_friction",
-            form="stribeck",
-            excitation=excitation,
-            duration_s=seconds,
-            perturb=0.05,
-            seed=7,
-        )
-        return generate(spec)[0]
-
+    trace = two_effects(truth, "coulomb_friction", "stribeck", seed=7)
     result = diagnose([trace("steps", FIT_SECONDS)], [trace("sine", HELD_SECONDS)], ModelConfig())
     assert result.verdict == "effects"
     assert sorted(result.effects_found) == ["coulomb_friction", "sensor_lag"]
@@ -291,19 +292,7 @@ def test_two_effects_that_rival_each_other_are_fitted_as_a_pair_and_both_named()
     bars, and both are named in one round (verdict ``effects``), with the held-out residual
     brought near the noise."""
     truth = ModelConfig().with_effect("warm_surroundings", {"gain_k_j": 0.1, "time_constant_s": 20.0}, "electrical")
-
-    def trace(excitation, seconds):
-        spec = SynthSpec(
-            truth,
-            effect="sensor_lag",
-            form="second-order",
-            excitation=excitation,
-            duration_s=seconds,
-            perturb=0.05,
-            seed=881251967,
-        )
-        return generate(spec)[0]
-
+    trace = two_effects(truth, "sensor_lag", "second-order", seed=881251967)
     result = diagnose([trace("steps", 60.0)], [trace("ramps", 40.0)], ModelConfig(), max_rounds=2)
     assert result.verdict == "effects" and sorted(result.effects_found) == ["sensor_lag", "warm_surroundings"]
     first = result.rounds[0]
