@@ -245,13 +245,32 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
     return twin
 
 
-if __name__ == "__main__":
-    import sys
+def main(argv: list[str] | None = None) -> None:
+    """``python -m sma_gym.calibration [standard|bench|twin]``: re-derive calibrated numbers."""
+    import argparse
 
-    if sys.argv[1:] == ["bench"]:
+    parser = argparse.ArgumentParser(
+        prog="python -m sma_gym.calibration",
+        description="Re-derive the calibrated numbers of sma_gym.params and the bench twin (prints them; "
+        "'twin' also writes sma_gym/models/bench-0.5mm-ht.json).",
+    )
+    parser.add_argument(
+        "target",
+        nargs="?",
+        default="standard",
+        choices=("standard", "bench", "twin"),
+        help="standard: h0 and rho_A of the report's actuator (default); bench: the datasheet bench "
+        "preset's fitted parameters; twin: the bench-0.5mm-ht twin from the four shared real runs",
+    )
+    target = parser.parse_args(argv).target
+    if target == "bench":
         calibrate_bench()
-    elif sys.argv[1:] == ["twin"]:
+    elif target == "twin":
         identify_twin()
     else:
         p = standard()
         calibrate(p.convection.h0_w_m2_k, p.wire.resistivity_austenite_ohm_m)
+
+
+if __name__ == "__main__":
+    main()

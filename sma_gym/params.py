@@ -101,7 +101,11 @@ class Wire:
     report's loop in the harness (1 kHz, resolved PWM, 11 Hz filter; h0 and rho_A
     recalibrated): 9 K passes 78 rows against 76 (gains PID + FF's and VSC2 + FF's cooling
     errors and two statements, loses VSC3 + FF's cooling sign and a fan statement) but lowers
-    every step efficiency by 9 % (15 V: 0.38 against the report's 0.60 %), so 6 K stays."""
+    every step efficiency by 9 % (15 V: 0.38 against the report's 0.60 %), so 6 K stays.
+    Symmetric on purpose: a cooling branch spread 1.5-2x wider than the heating one (or
+    narrower, or a lower M_f), each with h0 and rho_A recalibrated, was measured against
+    the same rows and every variant lost 3-12 of them (Table 6.1's heating errors double,
+    and fig. 4.9's slopes grow no more unequal)."""
 
     hysteron_width_spread: float = 1.0
     """w [-] = 1.0: spread of the hysterons' loop widths, as a fraction of the major-loop

@@ -157,3 +157,19 @@ def test_effect_values_outside_bounds_are_rejected():
         EffectSet.of({"coulomb_friction": {"force_n": 99.0}})
     with pytest.raises(ValueError, match="form"):
         EffectSet.of({"sensor_lag": {"parameters": {"time_constant_s": 0.1}, "form": "third-order"}})
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["nonsense"]])
+def test_the_calibration_command_answers_help_and_refuses_an_unknown_target_without_calibrating(argv, monkeypatch):
+    """Before, any argument but 'bench' or 'twin' (``--help`` too) ran the standard
+    calibration for minutes."""
+    from sma_gym import calibration
+
+    def never(*args, **kwargs):
+        raise AssertionError("calibrated")
+
+    for name in ("calibrate", "calibrate_bench", "identify_twin"):
+        monkeypatch.setattr(calibration, name, never)
+    with pytest.raises(SystemExit) as stop:
+        calibration.main(argv)
+    assert stop.value.code == (0 if argv == ["--help"] else 2)
