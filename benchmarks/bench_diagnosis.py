@@ -392,7 +392,8 @@ def final_heldout(result: Diagnosis) -> float | None:
     if not result.rounds:
         return None
     last = result.rounds[-1]
-    if last["verdict"] in ("effect", "effects", "ambiguous"):  # "effects": a pair named in one round
+    if last["verdict"] in ("effect", "effects", "ambiguous") or last.get("form_changed"):
+        # "effects": a pair named in one round; a form change: the round's model carries it.
         return last["heldout_normalised_rms"]
     if result.effects_found:
         return last["as_given_heldout_normalised_rms"]

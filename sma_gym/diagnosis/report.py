@@ -138,8 +138,9 @@ def _round_lines(result: Diagnosis) -> list[str]:
         "## Rounds",
         "",
         "Each round refits the nominal parameters and the effects found so far with every remaining "
-        "candidate (an ambiguous round also fits its best names in pairs, and names a pair that beats each "
-        "member alone); it stops when nothing is supported, the verdict is ambiguous, or the held-out "
+        "candidate (an ambiguous or unexplained round also fits its best names in pairs, and names a pair "
+        "that beats each member alone; an effect found before moves to another form when that form fits "
+        "as a new effect must); it stops when nothing is supported, the verdict is ambiguous, or the held-out "
         "residual is within 2x the noise (normalised RMS 1 = noise).",
         "",
         "| round | verdict | effect | held-out normalised RMS (refit only -> with effect) | held-out position RMS | parameters at a bound |",
@@ -149,6 +150,9 @@ def _round_lines(result: Diagnosis) -> list[str]:
         effect = r["effect"]
         if not (isinstance(effect, str) or effect is None):  # a pair named together, or an ambiguous set
             effect = (" and " if r["verdict"] == "effects" else " or ").join(effect)
+        for name, form in (r.get("form_changed") or {}).items():
+            effect = f"{effect}; " if effect else ""
+            effect += f"{name} in its '{form}' form"
         position = r["gap"]["heldout"].get("position", math.nan)
         bounds = "; ".join(r["parameters_at_bounds"]) or "none"
         lines.append(
