@@ -50,6 +50,15 @@ that was not hidden.
 
     python benchmarks/bench_diagnosis.py --grid 24 [--seed 0] [--generator both]
         [--max-rounds 3] [--budget-min 50] [--json] [--out grid.md]
+
+``--real [FOLDER]`` times the four-run diagnosis of the real bench (issue 12's speed goal:
+at most 5 minutes on 2 cores with nothing else running): ``sma-gym diagnose`` on the four
+shared runs from the datasheet preset, as ``python -m sma_gym.calibration twin`` runs it.
+The machine is shared, so it also times, in the same run, one simulation of the nominal
+model on the four runs (what every fit repeats) and prints the ratio, which does not depend
+on how busy the machine was.
+
+    python benchmarks/bench_diagnosis.py --real [../shared/data/real] [--max-rounds 3]
 """
 
 from __future__ import annotations
@@ -75,6 +84,7 @@ import numpy as np
 from sma_gym.data.measured import MeasuredTrace
 from sma_gym.diagnosis.synth import EXCITATIONS, SynthSpec, generate, perturb
 from sma_gym.diagnosis.workflow import (
+    CONTROL_PERIOD_S,
     DEFAULT_MAX_ROUNDS,
     NOISE_STOP,
     Diagnosis,
@@ -903,6 +913,43 @@ def grid_markdown(result: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def run_real(folder: Path | None, max_rounds: int) -> dict[str, Any]:
+    """Time the four-run diagnosis of the real bench and a reference simulation (see the module docstring)."""
+    from sma_gym.calibration import TWIN_RUNS
+    from sma_gym.data import find_real_data_dir, load_trace
+    from sma_gym.diagnosis import fitting
+    from sma_gym.params import preset
+
+    where = folder or find_real_data_dir()
+    if where is None or not Path(where).is_dir():
+        raise SystemExit(f"--real: the shared real runs are not at {where} (give their folder)")
+    traces = [load_trace(Path(where) / name) for name in TWIN_RUNS]
+    nominal = ModelConfig(preset("bench-0.5mm-ht-datasheet"))
+    problem = fitting.Problem(nominal, [fitting.prepare(t, CONTROL_PERIOD_S) for t in traces], CONTROL_PERIOD_S)
+    params = problem.nominal_parameters()
+    start = np.array([q.start for q in params])
+    problem.residual_matrix(params, [start])  # compile and warm up
+    repeats = 5
+    t0 = time.perf_counter()
+    for _ in range(repeats):
+        problem.residual_matrix(params, [start])
+    reference_s = (time.perf_counter() - t0) / repeats
+    t0 = time.perf_counter()
+    result = diagnose(traces, [], nominal, max_rounds=max_rounds)
+    seconds = time.perf_counter() - t0
+    return {
+        "runs": list(TWIN_RUNS),
+        "max_rounds": max_rounds,
+        "seconds": seconds,
+        "reference_simulation_seconds": reference_s,
+        "ratio": seconds / reference_s,
+        "goal_seconds": 300.0,
+        "verdict": result.verdict,
+        "effects_found": result.effects_found,
+        "rounds": [r["verdict"] for r in result.rounds],
+    }
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3, help="default mode: seeds per truth")
@@ -926,7 +973,27 @@ def main() -> int:
     parser.add_argument(
         "--merge", type=Path, nargs="+", metavar="JSON", help="report on saved --grid --json runs together, run nothing"
     )
+    parser.add_argument(
+        "--real",
+        type=Path,
+        nargs="?",
+        const=Path(),
+        metavar="FOLDER",
+        help="time the four-run diagnosis of the real bench (default folder: ../shared/data/real)",
+    )
     args = parser.parse_args()
+    if args.real is not None:
+        r = run_real(None if args.real == Path() else args.real, args.max_rounds)
+        if args.json:
+            print(json.dumps(r, indent=2))
+        else:
+            print(
+                f"four-run diagnosis of the real bench: {r['seconds']:.0f} s (goal <= {r['goal_seconds']:.0f} s on 2 "
+                f"cores with nothing else running); {r['ratio']:.0f}x one simulation of the four runs "
+                f"({r['reference_simulation_seconds']:.2f} s in this run); verdict {r['verdict']} "
+                f"({', '.join(r['effects_found']) or 'nothing found'}), rounds {r['rounds']}"
+            )
+        return 0
     if args.pairs:
         result = run_pairs(args.pairs, args.seed, args.max_rounds, args.budget_min * 60.0)
         markdown = pairs_markdown(result)

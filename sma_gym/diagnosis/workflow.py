@@ -464,13 +464,14 @@ def _round(
     form_refs = _form_references(found, forms, problem, held_problem, base_params, first_ref, n_eff, say)
     form_change = _better_form(first_ref, form_refs, as_given, heldout_gain, held_problem)
     form_bars = [c for _, _, c in form_refs]
+    reference = first_ref
     if form_change is not None:
-        name, form, better = form_change
+        name, form, reference = form_change
         say(f"{name} fits in its '{form}' form: candidates on top of that form")
         base_params = base({**forms, name: form})
-        refit = better.fit
-        form_bars = [c for c in form_bars if c is not better] + [first_ref]
-    candidates = [_candidate(refit, held_problem, n_eff)]
+        refit = reference.fit
+        form_bars = [c for c in form_bars if c is not reference] + [first_ref]
+    candidates = [reference]
     for k, name in enumerate(names, start=2):
         say(f"candidate {k}/{len(names) + 1}: {name}")
         params = base_params + fitting.effect_parameters(name)
@@ -514,7 +515,7 @@ def _better_form(
     current form) as a candidate must: by the BIC bar, the gain bar held out, consistently
     over the held-out blocks and better than the model as given. An effect's form is as
     uncertain as its size (measured: a delayed pulse settling found in its default form
-    left 5.0x the noise held out, in its delayed form 1.6x)."""
+    left 5.0x the noise held out, in its delayed form 1.7x)."""
     if not form_refs:
         return None
     name, form, best = min(form_refs, key=lambda f: f[2].heldout_score)
