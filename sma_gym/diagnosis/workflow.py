@@ -534,7 +534,7 @@ def _pairs_to_try(r: _Round, heldout_gain: float, electrical: bool) -> list[tupl
     * ``ambiguous``: the pairs of its first ``JOINT_RIVALS`` names (each explains part of the
       residual, so the round saw rivals).
     * ``unexplained``: the candidates with evidence of either kind, past the BIC bar on the
-      fitted data or past the gain bar held out, but supported on neither both: two effects
+      fitted data or past the gain bar held out, none of them supported alone: two effects
       hidden at once can each fit the fitted data better and each predict the held-out data
       worse than the refit (measured: a Coulomb friction, ΔBIC -254, held out 2.4x worse, a
       pulse settling -50 and 2.6x worse, hidden together), so no single one is supported.
