@@ -6,7 +6,7 @@ either PWM mode, horizons up to a minute:
 * no NaN or inf in the state (readings may be NaN only where no reading was possible);
 * 0 <= xi <= 1 for every sub-element;
 * 0 <= x <= eps0*l0, allowing below zero only the wire's thermal expansion (and a
-  hair of mechanical overshoot);
+  hair of mechanical overshoot), or what friction holds of it while the wire cools;
 * the temperature never exceeds what the energy balance allows: neither the steady state
   of full power against convection, nor the adiabatic rise of all energy put in;
 * energy is accounted for: electrical in + latent = convected + stored + mechanical work,
@@ -16,12 +16,13 @@ either PWM mode, horizons up to a minute:
 import math
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from sma_gym import ModelConfig, Simulator, preset, preset_names
 from sma_gym.core import layout as L
 from sma_gym.effects import EFFECTS
+from sma_gym.physics.mechanics import FRICTION_FORMS, static_friction
 from sma_gym.physics.thermal import convection_coefficient
 
 READINGS = {L.S_R_MEAS, L.S_I_MEAS, L.S_V_MEAS}
@@ -63,8 +64,31 @@ def scenarios(draw):
     return model, np.repeat(np.asarray(blocks), block_ms), mode
 
 
+def _kept(name, voltage_v, effects, blocks, block_ms, mode):
+    model = ModelConfig(preset(name).with_changes(**{"driver.supply_voltage_v": voltage_v}))
+    for effect_name, values, form in effects:
+        model = model.with_effect(effect_name, values, form)
+    return model, np.repeat(np.asarray(blocks, dtype=float), block_ms), mode
+
+
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(scenarios())
+# Failures random draws once found, kept: friction holding a cooling wire 40 um below its
+# thermal expansion (the bound needed the friction band), and a subnormal spread whose
+# uniform centres divided by an underflowed std.
+@example(
+    _kept("wire-0.3mm", 10.0, [("coulomb_friction", {"force_n": 0.5}, "default")], [1.0] + [0.0] * 10, 2000, "averaged")
+)
+@example(
+    _kept(
+        "bench-0.5mm-ht-datasheet",
+        1.0,
+        [("transformation_spread", {"spread_k": 2.225073858507e-311}, "uniform")],
+        [0.0] * 5,
+        5,
+        "averaged",
+    )
+)
 def test_any_input_keeps_the_state_physical(scenario):
     model, duty, mode = scenario
     duty = duty[:60000]
@@ -86,8 +110,14 @@ def test_any_input_keeps_the_state_physical(scenario):
     t = rec["temperature_c"]
     t_amb = p.convection.ambient_temperature_c
     expansion = p.wire.thermal_expansion_1_k * np.maximum(t - t_amb, 0.0) * p.wire.length_m
+    # Friction may hold the sleigh where the hot, expanded wire left it while the wire cools:
+    # the wire then strains elastically, by at most the static force over its softest
+    # stiffness (E_M A / l0; the spring in parallel only stiffens it).
+    held_m = static_friction(
+        model.effects.value("coulomb_friction", "force_n"), FRICTION_FORMS[model.effects.form("coulomb_friction")]
+    ) / (p.wire.youngs_modulus_martensite_pa * p.wire.area_m2 / p.wire.length_m)
     assert np.all(x <= p.wire.max_stroke_m)
-    assert np.all(x >= -expansion - 5e-6)
+    assert np.all(x >= -expansion - held_m - 5e-6)
 
     # Temperature bound from the energy balance: the steady state of the largest possible
     # electrical power against the model's own convection law (any form), and the adiabatic

@@ -198,8 +198,10 @@ def _exact_unit_sum(weights: list[float]) -> list[float]:
 def _uniform_centres(spread_k: float, count: int) -> list[float]:
     if spread_k == 0.0:
         return [0.0] * count  # no spread (the effect's off value): no rescaling to do
-    half_width = math.sqrt(3.0) * spread_k
-    centres = [-half_width + (2 * k + 1) * half_width / count for k in range(count)]
+    # Unit-std centres scaled afterwards: scaling first would underflow the std for a
+    # subnormal spread_k (found by the property test: 2e-311 K divided by zero).
+    half_width = math.sqrt(3.0)
+    unit = [-half_width + (2 * k + 1) * half_width / count for k in range(count)]
     # Midpoints of equal bins have a slightly smaller spread; rescale to the exact std.
-    std = math.sqrt(sum(c * c for c in centres) / count)
-    return [c * spread_k / std for c in centres]
+    std = math.sqrt(sum(c * c for c in unit) / count)
+    return [spread_k * c / std for c in unit]
