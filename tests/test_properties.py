@@ -8,7 +8,8 @@ either PWM mode, horizons up to a minute:
 * 0 <= x <= eps0*l0, allowing below zero only the wire's thermal expansion (and a
   hair of mechanical overshoot), or what friction holds of it while the wire cools;
 * the temperature never exceeds what the energy balance allows: neither the steady state
-  of full power against convection, nor the adiabatic rise of all energy put in;
+  of full power against convection (to surroundings as warm as the warm_surroundings
+  effect can make them), nor the adiabatic rise of all energy put in;
 * energy is accounted for: electrical in + latent = convected + stored + mechanical work,
   to 1e-9 of the input; and the mechanical work is kinetic + spring + dissipated to 0.1 %.
 """
@@ -28,9 +29,10 @@ from sma_gym.physics.thermal import convection_coefficient
 READINGS = {L.S_R_MEAS, L.S_I_MEAS, L.S_V_MEAS}
 
 
-def steady_state_bound(col, power_w):
-    """Temperature where the packed convection law carries away ``power_w`` (bisection)."""
-    t_amb = col[L.P_T_AMB]
+def steady_state_bound(col, power_w, sink_c):
+    """Temperature where the packed convection law carries ``power_w`` to surroundings at
+    ``sink_c`` (bisection)."""
+    t_amb = sink_c
 
     def loss(t):
         h = convection_coefficient(
@@ -74,8 +76,9 @@ def _kept(name, voltage_v, effects, blocks, block_ms, mode):
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(scenarios())
 # Failures random draws once found, kept: friction holding a cooling wire 40 um below its
-# thermal expansion (the bound needed the friction band), and a subnormal spread whose
-# uniform centres divided by an underflowed std.
+# thermal expansion (the bound needed the friction band), a subnormal spread whose uniform
+# centres divided by an underflowed std, and surroundings warmed by the supply (the
+# temperature bound needed the warmer sink).
 @example(
     _kept("wire-0.3mm", 10.0, [("coulomb_friction", {"force_n": 0.5}, "default")], [1.0] + [0.0] * 10, 2000, "averaged")
 )
@@ -86,6 +89,19 @@ def _kept(name, voltage_v, effects, blocks, block_ms, mode):
         [("transformation_spread", {"spread_k": 2.225073858507e-311}, "uniform")],
         [0.0] * 5,
         5,
+        "averaged",
+    )
+)
+@example(
+    _kept(
+        "bench-0.5mm-ht-datasheet",
+        15.0,
+        [
+            ("convection_change", {"scale": 2.0, "h1_w_m2_k2": 2.0}, "default"),
+            ("warm_surroundings", {"gain_k_j": 1.0, "time_constant_s": 2.0}, "electrical"),
+        ],
+        [1.0],
+        2221,
         "averaged",
     )
 )
@@ -131,11 +147,20 @@ def test_any_input_keeps_the_state_physical(scenario):
         * 0.9
     )
     p_max = p.driver.supply_voltage_v**2 / r_min
-    t_ss = steady_state_bound(sim.params[0], p_max)
     latent_margin = (
         max(0.0, w.latent_heat_j_kg + model.effects.value("latent_heat", "change_j_kg")) / w.specific_heat_j_kg_k
     )
-    adiabatic = t_amb + sim.electrical_energy_j[0] / w.heat_capacity_j_k
+    # Warm surroundings raise the sink the wire convects to: dT_s/dt = g P_src - (T_s - T_amb)/tau
+    # keeps T_s - T_amb below g times the energy the source ever delivered (the electrical
+    # input, plus the latent heat for the convected form) and, for an electrical source,
+    # below g P_max tau.
+    gain = model.effects.value("warm_surroundings", "gain_k_j")
+    sink_rise = gain * (sim.electrical_energy_j[0] + latent_margin * w.heat_capacity_j_k)
+    if model.effects.form("warm_surroundings") == "electrical":
+        sink_rise = min(sink_rise, gain * p_max * model.effects.value("warm_surroundings", "time_constant_s"))
+    t_ss = steady_state_bound(sim.params[0], p_max, t_amb + sink_rise)
+    # Above the warmest sink, the wire only gains what the supply puts in.
+    adiabatic = t_amb + sink_rise + sim.electrical_energy_j[0] / w.heat_capacity_j_k
     assert t.max() <= max(t_amb, min(t_ss, adiabatic)) + latent_margin + 0.5
 
     e = sim.energy_balance()
