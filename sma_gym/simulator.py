@@ -46,6 +46,19 @@ DEFAULT_MAX_POSITION_STEP_M = 10e-6
 fast arrival and the stress transient of the stop (at 20 V the wire arrives at ~0.2 m/s),
 which moves hysterons irreversibly."""
 
+DEFAULT_MAX_TEMPERATURE_STEP_AT_CUT_K = 0.01
+"""Largest temperature change per sub-step in the cut's switching band (from 0.1 mm below
+the release point up to the cut; the general bound applies if smaller). A wire latched at
+the cut cools ~8 K while its position falls by the 0.2 mm release, so 1 um of position moves
+the release by ~2 ms, and at 20 V the wire re-heats at ~1000 K/s: the relay cycle stays in
+phase only if each release is timed to a fraction of a millisecond. Measured at 20 V on
+random duty sequences (0.25 s blocks) against a 30 us reference: 0.33 mm / 7.4 K with the
+general bounds alone, 0.013 mm / 0.18 K with 0.01 K and 1 um, 0.05 mm / 0.73 K with 0.02 K."""
+
+DEFAULT_MAX_POSITION_STEP_AT_CUT_M = 1e-6
+"""Largest position change per sub-step in the cut's switching band (see above; 2 um gives
+0.03 mm / 0.45 K, 10 um 0.14 mm / 2.0 K)."""
+
 _NO_NOISE = np.zeros((0, 4, 0))
 _NO_RECORD = np.zeros((0, 0, 0))
 _NO_FIELDS = np.zeros(0, dtype=np.int64)
@@ -61,6 +74,8 @@ def pack_params(
     max_substep_s: float = DEFAULT_MAX_SUBSTEP_S,
     max_temperature_step_k: float = DEFAULT_MAX_TEMPERATURE_STEP_K,
     max_position_step_m: float = DEFAULT_MAX_POSITION_STEP_M,
+    max_temperature_step_at_cut_k: float = DEFAULT_MAX_TEMPERATURE_STEP_AT_CUT_K,
+    max_position_step_at_cut_m: float = DEFAULT_MAX_POSITION_STEP_AT_CUT_M,
 ) -> np.ndarray:
     """Turn a model configuration into one actuator's row of the core's parameter matrix."""
     require_choice("pwm_mode", pwm_mode, PWM_MODES)
@@ -169,6 +184,8 @@ def pack_params(
     row[L.P_H_MAX] = max_substep_s
     row[L.P_DT_MAX] = max_temperature_step_k
     row[L.P_DX_MAX] = max_position_step_m
+    row[L.P_DT_BAND] = max_temperature_step_at_cut_k
+    row[L.P_DX_BAND] = max_position_step_at_cut_m
 
     row[L.P_STROKE] = p.usable_stroke_m
     row[L.P_R_COLD] = w.cold_resistance_ohm
@@ -201,7 +218,11 @@ class Simulator:
         Randomness for sensor noise (only drawn when a noise level is non-zero).
     max_substep_s, max_temperature_step_k, max_position_step_m:
         Accuracy bounds of the integration sub-step (see :mod:`sma_gym.core.kernel`):
-        10 ms, 0.5 K and 10 um by default.
+        10 ms, 0.5 K and 10 um (within 2 mm of the end-of-travel cut) by default.
+    max_temperature_step_at_cut_k, max_position_step_at_cut_m:
+        The same bounds in the cut's switching band, from 0.1 mm below its release point up
+        to the cut, where the relay cycle of cut and release must stay in phase: 0.01 K and
+        1 um by default (the smaller of these and the general bounds applies).
     """
 
     def __init__(
@@ -218,12 +239,16 @@ class Simulator:
         max_substep_s: float = DEFAULT_MAX_SUBSTEP_S,
         max_temperature_step_k: float = DEFAULT_MAX_TEMPERATURE_STEP_K,
         max_position_step_m: float = DEFAULT_MAX_POSITION_STEP_M,
+        max_temperature_step_at_cut_k: float = DEFAULT_MAX_TEMPERATURE_STEP_AT_CUT_K,
+        max_position_step_at_cut_m: float = DEFAULT_MAX_POSITION_STEP_AT_CUT_M,
     ) -> None:
         require_choice("pwm_mode", pwm_mode, PWM_MODES)
         self.control_period_s = require_range("control_period_s", control_period_s, 1e-6, 10.0, "s")
         require_range("max_substep_s", max_substep_s, 1e-7, 0.1, "s")
         require_range("max_temperature_step_k", max_temperature_step_k, 1e-4, 10.0, "K")
         require_range("max_position_step_m", max_position_step_m, 1e-8, 1e-2, "m")
+        require_range("max_temperature_step_at_cut_k", max_temperature_step_at_cut_k, 1e-4, 10.0, "K")
+        require_range("max_position_step_at_cut_m", max_position_step_at_cut_m, 1e-8, 1e-2, "m")
         if isinstance(model, (list, tuple)):
             models = [load_model(m) for m in model]
             if n is not None and n != len(models):
@@ -261,6 +286,8 @@ class Simulator:
         self.max_substep_s = max_substep_s
         self.max_temperature_step_k = max_temperature_step_k
         self.max_position_step_m = max_position_step_m
+        self.max_temperature_step_at_cut_k = max_temperature_step_at_cut_k
+        self.max_position_step_at_cut_m = max_position_step_at_cut_m
 
         packed = []
         cache: dict[int, np.ndarray] = {}
@@ -268,6 +295,8 @@ class Simulator:
             "max_substep_s": max_substep_s,
             "max_temperature_step_k": max_temperature_step_k,
             "max_position_step_m": max_position_step_m,
+            "max_temperature_step_at_cut_k": max_temperature_step_at_cut_k,
+            "max_position_step_at_cut_m": max_position_step_at_cut_m,
         }
         for index, m in enumerate(models):
             if pwm_slots is not None:

@@ -23,9 +23,14 @@ accuracy, per actuator and per sub-step: the net heat flow (electrical in, conve
 may change the temperature by at most ``DT_MAX`` (0.5 K, about 1/70 of the transformation
 range; the position moves by at most ~0.25 mm), and h never exceeds ``H_MAX`` (10 ms by
 default). A wire heating at full power takes ~2 ms steps, a holding or cooling wire one
-step per control period. PWM-resolved mode additionally cuts sub-steps at every switching
-edge. The test suite checks that refining both bounds converges at first order and that
-the default is within a stated error of a fine reference.
+step per control period. Within 2 mm of the end-of-travel cut the position may move by at
+most ``DX_MAX`` (10 um) per sub-step, and in the cut's switching band (from 0.1 mm below its
+release point up to the cut) both bounds tighten to ``DT_BAND`` and ``DX_BAND`` (0.01 K,
+1 um): there the cut's relay cycle times its switching on micrometres of position. The cut
+and its release switch where the position crosses them inside a sub-step. PWM-resolved
+mode additionally cuts sub-steps at every switching edge. The test suite checks that
+refining every bound converges at first order and that the default is within a stated
+error of a fine reference.
 """
 
 from __future__ import annotations
@@ -50,8 +55,10 @@ from sma_gym.core.layout import (
     P_D_A,
     P_D_M,
     P_DAMPING,
+    P_DT_BAND,
     P_DT_MAX,
     P_DUTY_MAX,
+    P_DX_BAND,
     P_DX_MAX,
     P_EOT,
     P_EOT_RELEASE,
@@ -164,6 +171,9 @@ parameters (PWM edges in resolved mode come on top, two per PWM period)."""
 
 CUT_WATCH_M = 2e-3
 """Within this distance below x_eot a powered sub-step is checked for crossing the cut."""
+
+CUT_BAND_MARGIN_M = 0.1e-3
+"""The switching band runs from this far below the cut's release point up to the cut."""
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -394,6 +404,7 @@ def _control_step(state, params, i, duty_cmd, dt, noise4, hyst, n_nodes, saved):
     remaining = dt
     while remaining > MIN_SUBSTEP_S:
         switched_on = False
+        cut_in_pulse = False  # resolved: latched by the cut inside this period's pulse
         if resolved:
             tau = state[i, S_PWM_TAU]
             if tau >= period - edge_tol:
@@ -417,8 +428,13 @@ def _control_step(state, params, i, duty_cmd, dt, noise4, hyst, n_nodes, saved):
                 switched_on = False
                 edge = pulse_start
             else:
-                switched_on = tau < pulse_end - edge_tol and state[i, S_EOT_CUT] < 0.5
-                edge = pulse_end if switched_on else period
+                in_pulse = tau < pulse_end - edge_tol
+                switched_on = in_pulse and state[i, S_EOT_CUT] < 0.5
+                # A wire latched by the cut during the pulse conducts again from where its
+                # position falls below the release point (located below), for the rest of
+                # the pulse: the sub-step still ends at the pulse's end.
+                cut_in_pulse = in_pulse and not switched_on
+                edge = pulse_end if in_pulse else period
             seg = edge - tau
             if seg < MIN_SUBSTEP_S:
                 # Rounding sliver just before an edge: move the clock past it, no integration.
@@ -444,15 +460,20 @@ def _control_step(state, params, i, duty_cmd, dt, noise4, hyst, n_nodes, saved):
         t_now = state[i, S_T]
         h_conv = _convection(state, params, i, t_now)
         rate = abs(power - h_conv * params[i, P_SURFACE] * (t_now - state[i, S_T_SURR])) / heat_cap
-        if rate * seg > dt_max_k:
-            seg = dt_max_k / rate
+        # In the switching band (from just below the release point up to the cut) both
+        # bounds tighten: the cut's relay cycle times its switching on the position.
+        in_band = state[i, S_X] > params[i, P_EOT] - params[i, P_EOT_RELEASE] - CUT_BAND_MARGIN_M
+        dt_lim = min(dt_max_k, params[i, P_DT_BAND]) if in_band else dt_max_k
+        if rate * seg > dt_lim:
+            seg = dt_lim / rate
         # ... and, approaching the end-of-travel cut, the position by at most P_DX_MAX: there
         # the wire stops abruptly, and the stress transient of that stop moves hysterons
         # irreversibly, so it must be resolved. Elsewhere the motion follows the temperature
         # quasi-statically and the temperature bound suffices.
         speed = abs(state[i, S_V])
-        if speed * seg > params[i, P_DX_MAX] and state[i, S_X] > params[i, P_EOT] - CUT_WATCH_M:
-            seg = params[i, P_DX_MAX] / speed
+        dx_lim = min(params[i, P_DX_MAX], params[i, P_DX_BAND]) if in_band else params[i, P_DX_MAX]
+        if speed * seg > dx_lim and state[i, S_X] > params[i, P_EOT] - CUT_WATCH_M:
+            seg = dx_lim / speed
         # Bounded work whatever the parameters: never more than MAX_SUBSTEPS per control step
         # (a physically meaningless model then integrates inaccurately, but it returns).
         if seg < dt / MAX_SUBSTEPS:
@@ -472,9 +493,10 @@ def _control_step(state, params, i, duty_cmd, dt, noise4, hyst, n_nodes, saved):
             threshold = eot
             watch = power > 0.0 and x_now > eot - CUT_WATCH_M
         else:
-            # Release (averaged mode; resolved mode resumes at the next PWM edge).
+            # Release: where power would flow (averaged: any duty; resolved: inside a pulse).
             threshold = eot - params[i, P_EOT_RELEASE]
-            watch = not resolved and mean_fraction > 0.0 and x_now < threshold + CUT_WATCH_M
+            drive = cut_in_pulse if resolved else mean_fraction > 0.0
+            watch = drive and x_now < threshold + CUT_WATCH_M
         if watch:
             for r in range(saved.shape[0]):
                 saved[r] = state[i, r]

@@ -209,6 +209,9 @@ P_R_COLD = _NODE_END + 39  # cold resistance [ohm] (Wire.cold_resistance_ohm)
 P_SURR_GAIN = _NODE_END + 40  # surroundings' warming per joule the wire convects [K/J]
 P_SURR_TAU = _NODE_END + 41  # surroundings' relaxation time to the ambient [s]
 P_SURR_FORM = _NODE_END + 42  # physics.thermal.SURROUNDINGS_FORMS
-N_PARAMS = P_SURR_FORM + 1
+# integrator, in the end-of-travel cut's switching band (see core.kernel)
+P_DT_BAND = _NODE_END + 43  # largest temperature change per sub-step in the band [K]
+P_DX_BAND = _NODE_END + 44  # largest position change per sub-step in the band [m]
+N_PARAMS = P_DX_BAND + 1
 
 PARAM_FIELDS = {name[2:].lower(): index for name, index in list(globals().items()) if name.startswith("P_")}
