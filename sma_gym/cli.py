@@ -67,6 +67,10 @@ def _diagnose(args: argparse.Namespace) -> int:
     from sma_gym.model import load_model
 
     require_max_rounds("--max-rounds", args.max_rounds)
+    if args.threads is not None:
+        from sma_gym.diagnosis.fitting import require_threads
+
+        require_threads("--threads", args.threads)
     if args.cross_validate and (args.heldout or len(args.files) < 2):
         raise ValueError("--cross-validate: expected at least 2 files and no --heldout (each file is held out in turn)")
     out = check_output_folder(args.out)
@@ -88,7 +92,9 @@ def _diagnose(args: argparse.Namespace) -> int:
     if args.cross_validate:
         return _cross_validate(args, fit, nominal, effects, out, progress)
     with locked_folder(out):
-        result = diagnose(fit, held, nominal, effects, progress=progress, max_rounds=args.max_rounds)
+        result = diagnose(
+            fit, held, nominal, effects, progress=progress, max_rounds=args.max_rounds, threads=args.threads
+        )
         paths = write_outputs(result, out, fit, held, nominal)
     _print_diagnosis(result, paths, args.json)
     if args.model is None and result.verdict == "unexplained":
@@ -118,7 +124,7 @@ def _cross_validate(
     from sma_gym.diagnosis.workflow import cross_validate
 
     with locked_folder(out):
-        cv = cross_validate(fit, nominal, effects, progress=progress, max_rounds=args.max_rounds)
+        cv = cross_validate(fit, nominal, effects, progress=progress, max_rounds=args.max_rounds, threads=args.threads)
         table = cross_validation_table(cv)
         write_json(out / "cross_validation.json", cv)
         write_text(out / "cross_validation.md", "# Leave one run out\n\n" + table)
@@ -174,6 +180,13 @@ def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
         type=int,
         default=3,
         help="add at most this many effects, one per round, re-fitting everything found so far (default 3; 1 = one round)",
+    )
+    p.add_argument(
+        "--threads",
+        type=int,
+        default=None,
+        help="threads for the batched simulations (default: the cores this process may use, at most 8); "
+        "the result does not depend on it",
     )
     p.add_argument(
         "--cross-validate",

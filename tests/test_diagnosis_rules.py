@@ -159,6 +159,25 @@ def test_the_resistivity_level_is_refitted_on_position_only_data_and_forms_reach
         fitting.effect_parameters("supply_sag", "cubic")
 
 
+def test_batched_simulations_give_the_same_residuals_bit_for_bit_on_any_number_of_threads():
+    traces = [
+        generate(SynthSpec(ModelConfig(), excitation=kind, duration_s=4.0, electrical=electrical, seed=2))[0]
+        for kind, electrical in (("steps", False), ("sine", True))
+    ]
+    data = [fitting.prepare(t, 1e-3) for t in traces]
+    params = fitting.Problem(ModelConfig(), data, 1e-3).nominal_parameters()
+    start = np.array([p.start for p in params])
+    points = [start + 0.02 * k * np.array([p.upper - p.lower for p in params]) for k in range(5)]
+    points = [np.clip(u, [p.lower for p in params], [p.upper for p in params]) for u in points]
+    one = fitting.Problem(ModelConfig(), data, 1e-3, threads=1).residual_matrix(params, points)
+    for threads in (2, 3, 8):
+        many = fitting.Problem(ModelConfig(), data, 1e-3, threads=threads).residual_matrix(params, points)
+        assert np.array_equal(one, many), threads
+    for bad in (0, 9, 1.5, True):
+        with pytest.raises(ValueError, match="threads"):
+            fitting.Problem(ModelConfig(), data, 1e-3, threads=bad)
+
+
 def test_an_inert_candidate_is_detected_from_its_fitted_residuals():
     trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=5.0, electrical=False, seed=1))
     problem = fitting.Problem(ModelConfig(), [fitting.prepare(trace, 1e-3)], 1e-3)

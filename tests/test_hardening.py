@@ -216,6 +216,23 @@ def test_diagnose_into_a_busy_out_exits_2_and_writes_nothing(tmp_path, capsys):
     assert [p.name for p in (tmp_path / "d").iterdir()] == []
 
 
+@pytest.mark.parametrize("threads", ["0", "9", "two"])
+def test_diagnose_with_a_bad_thread_count_exits_2_and_writes_nothing(tmp_path, capsys, threads):
+    from sma_gym.cli import main
+
+    csv = _synth(tmp_path, "s.csv")
+    argv = ["diagnose", str(csv), "--out", str(tmp_path / "d"), "--threads", threads]
+    if threads.isdigit():
+        assert main(argv) == 2
+    else:
+        with pytest.raises(SystemExit) as stop:  # argparse refuses it before main runs
+            main(argv)
+        assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "--threads" in err and threads in err
+    assert not (tmp_path / "d").exists()
+
+
 def _synth(tmp_path: Path, name: str, *extra: str) -> Path:
     from sma_gym.cli import main
 

@@ -540,7 +540,7 @@ def _control_step(state, params, i, duty_cmd, dt, noise4, hyst, n_nodes, saved):
     state[i, S_TIME] += dt
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def advance(state, params, duty, dt, noise, record, record_fields):
     """Advance every actuator by ``duty.shape[0]`` control steps of ``dt`` seconds.
 

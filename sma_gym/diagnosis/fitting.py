@@ -14,12 +14,17 @@ and voltage where measured), each divided by a robust estimate of its measuremen
 so outputs are weighted by how well they were measured. Fits are bounded least squares
 (scipy's trust-region reflective); the Jacobian comes from forward differences that run as
 extra columns of one batched simulation, so one iteration costs one call into the core.
+That call runs on several threads (the core releases the GIL): the columns and the traces
+are split into ``threads`` parts each, all simulated at once; every actuator is independent,
+so the result is the same bit for bit with any thread count.
 """
 
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +42,29 @@ OUTPUT_COLUMNS = {
     "voltage": ("supply_voltage", "voltage_measured_v", 1e-3),
 }
 OUTPUT_UNITS = {"position": "m", "resistance": "ohm", "current": "A", "voltage": "V"}
+
+MAX_THREADS = 8
+"""Most threads a batched simulation uses: one call simulates about 7 columns per trace,
+so beyond (traces x 7) / 2 threads the parts would be too small to gain."""
+
+
+def default_threads() -> int:
+    """Threads for the batched simulations of a fit: the cores this process may run on, at
+    most ``MAX_THREADS``. The core is pure computation without a spinning thread pool, so
+    on a shared machine extra threads only time-share; they never thrash."""
+    try:
+        available = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on every platform
+        available = os.cpu_count() or 1
+    return max(1, min(available, MAX_THREADS))
+
+
+def require_threads(name: str, value: object) -> int:
+    """``value`` as a thread count (1..MAX_THREADS), or ValueError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_THREADS:
+        raise ValueError(f"{name} = {value!r}: expected an integer from 1 to {MAX_THREADS}")
+    return int(value)
+
 
 # Effect parameters that would duplicate a fitted nominal parameter are held at off.
 DEGENERATE_WITH_NOMINAL = {("convection_change", "scale")}
@@ -228,11 +256,42 @@ def simulate(
             # Before the first control step ends the actuator is at rest.
             first = np.where((idx < 0)[:, None], 0.0, first)
             if data.rest is not None:
-                zero = np.mean(data.outputs["position"][data.rest, None] - first[data.rest], axis=0)
+                # Each column's mean summed alone (contiguous), so that a column's result
+                # does not depend on how many others share the batch (threads split it).
+                gap = data.outputs["position"][data.rest, None] - first[data.rest]
+                zero = np.ascontiguousarray(gap.T).mean(axis=1)
                 first = first + zero[None, :]
             else:
                 first = first + np.asarray(offsets)[None, :]
         out[name] = first
+    return out
+
+
+def simulate_traces(
+    models: Sequence[ModelConfig],
+    offsets: Sequence[float],
+    traces: Sequence[TraceData],
+    control_period_s: float,
+    threads: int = 1,
+) -> list[dict[str, np.ndarray]]:
+    """:func:`simulate` for each trace, the models and the traces split over ``threads``."""
+    if threads <= 1 or len(models) * len(traces) < 2:
+        return [simulate(models, offsets, d, control_period_s) for d in traces]
+    parts = [c for c in np.array_split(np.arange(len(models)), min(threads, len(models))) if c.size]
+    tasks = [(d, c) for d in traces for c in parts]
+    with ThreadPoolExecutor(max_workers=min(threads, len(tasks))) as pool:
+        done = list(
+            pool.map(
+                lambda task: simulate(
+                    [models[k] for k in task[1]], [offsets[k] for k in task[1]], task[0], control_period_s
+                ),
+                tasks,
+            )
+        )
+    out = []
+    for j, d in enumerate(traces):
+        pieces = done[j * len(parts) : (j + 1) * len(parts)]
+        out.append({name: np.concatenate([p[name] for p in pieces], axis=1) for name in d.outputs})
     return out
 
 
@@ -292,11 +351,18 @@ class Fit:
 class Problem:
     """Fit data (one or more traces) and the nominal model; evaluates candidates in batches."""
 
-    def __init__(self, nominal: ModelConfig, traces: Sequence[TraceData], control_period_s: float):
+    def __init__(
+        self,
+        nominal: ModelConfig,
+        traces: Sequence[TraceData],
+        control_period_s: float,
+        threads: int | None = None,
+    ):
         self.nominal = nominal
         self.traces = list(traces)
         self.dt = control_period_s
         self.electrical = any(name != "position" for t in traces for name in t.outputs)
+        self.threads = default_threads() if threads is None else require_threads("threads", threads)
 
     def nominal_parameters(self) -> tuple[FitParameter, ...]:
         params = tuple(p for p in NOMINAL if p.kind != "offset")
@@ -325,7 +391,10 @@ class Problem:
     def residual_matrix(self, parameters: Sequence[FitParameter], points: Sequence[np.ndarray]) -> np.ndarray:
         """Residual vectors of several parameter points at once: (m, len(points))."""
         models, offsets = zip(*(apply(self.nominal, parameters, p) for p in points))
-        blocks = [residuals(simulate(models, offsets, d, self.dt), d) for d in self.traces]
+        blocks = [
+            residuals(sim, d)
+            for sim, d in zip(simulate_traces(models, offsets, self.traces, self.dt, self.threads), self.traces)
+        ]
         return np.concatenate(blocks, axis=0)
 
     def fit(

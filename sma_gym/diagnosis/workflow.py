@@ -236,6 +236,7 @@ def diagnose(
     control_period_s: float = CONTROL_PERIOD_S,
     progress: Callable[[str], None] | None = None,
     max_rounds: int = DEFAULT_MAX_ROUNDS,
+    threads: int | None = None,
 ) -> Diagnosis:
     """Run the workflow on measured traces (see the module docstring).
 
@@ -244,6 +245,8 @@ def diagnose(
     faster than ``control_period_s`` are decimated to it (the model is compared at control
     steps, denser samples add nothing but time); files longer than ``MAX_DURATION_S`` are
     refused with the reason. ``max_rounds`` bounds the iteration (1: a single round).
+    ``threads`` splits each batched simulation (default: the cores this process may use, at
+    most ``fitting.MAX_THREADS``); the result does not depend on it.
     """
     started = time.perf_counter()
 
@@ -257,6 +260,7 @@ def diagnose(
         if name not in EFFECTS:
             raise ValueError(f"effect = {name!r}: expected one of {', '.join(EFFECTS)}")
     require_max_rounds("max_rounds", max_rounds)
+    threads = fitting.default_threads() if threads is None else fitting.require_threads("threads", threads)
     if not fit_traces:
         raise ValueError("no files to fit: give at least one measured trace")
     fit_traces = [_decimated(t, control_period_s, say) for t in fit_traces]
@@ -311,6 +315,7 @@ def diagnose(
             control_period_s,
             gain,
             lambda m, number=number: say(f"round {number}: {m}"),
+            threads,
         )
         first = first or r
         last = r
@@ -424,6 +429,7 @@ def _round(
     control_period_s: float,
     heldout_gain: float,
     say: Callable[[str], None],
+    threads: int = 1,
 ) -> _Round:
     """One round: the nominal refit (with the effects found so far), then every remaining
     candidate on top, scored by BIC on the fitted data and by the held-out error. A
@@ -433,8 +439,8 @@ def _round(
     follow (the best reference, the forms of the effects found, the runner-up margin,
     identifiability) are described in the module docstring. ``forms`` gives the form of
     each effect found (default when absent)."""
-    problem = fitting.Problem(nominal, fit_data, control_period_s)
-    held_problem = fitting.Problem(nominal, held_data, control_period_s)
+    problem = fitting.Problem(nominal, fit_data, control_period_s, threads)
+    held_problem = fitting.Problem(nominal, held_data, control_period_s, threads)
 
     def base(forms: dict[str, str]) -> tuple[fitting.FitParameter, ...]:
         return problem.nominal_parameters() + tuple(
@@ -927,6 +933,7 @@ def cross_validate(
     control_period_s: float = CONTROL_PERIOD_S,
     progress: Callable[[str], None] | None = None,
     max_rounds: int = DEFAULT_MAX_ROUNDS,
+    threads: int | None = None,
 ) -> dict[str, Any]:
     """Leave one run out: for every file, diagnose on all the others and predict it.
 
@@ -951,7 +958,9 @@ def cross_validate(
             if progress is not None:
                 progress(f"fold {k + 1}/{len(traces)} (predict {name}): {message}")
 
-        result = diagnose(fit, [], nominal, effects, control_period_s, progress=say, max_rounds=max_rounds)
+        result = diagnose(
+            fit, [], nominal, effects, control_period_s, progress=say, max_rounds=max_rounds, threads=threads
+        )
         data = fitting.prepare(_decimated(held, control_period_s, say), control_period_s)
         offset = float(result.parameters.get("position_offset_m", {}).get("value", 0.0))
         nominal_rms = fitting.rms_by_output(fitting.simulate([nominal], [0.0], data, control_period_s), data)
