@@ -44,8 +44,8 @@ OUTPUT_COLUMNS = {
 OUTPUT_UNITS = {"position": "m", "resistance": "ohm", "current": "A", "voltage": "V"}
 
 MAX_THREADS = 8
-"""Most threads a batched simulation uses: one call simulates about 7 columns per trace,
-so beyond (traces x 7) / 2 threads the parts would be too small to gain."""
+"""Most threads a batched simulation uses. A call simulates about 7 columns for each trace,
+so more threads would each get too small a part to gain."""
 
 
 def default_threads() -> int:
