@@ -32,45 +32,43 @@ READINGS = {L.S_R_MEAS, L.S_I_MEAS, L.S_V_MEAS}
 def steady_state_bound(col, power_w, sink_c):
     """Temperature where the packed convection law carries ``power_w`` to surroundings at
     ``sink_c`` (bisection)."""
-    t_amb = sink_c
 
     def loss(t):
         h = convection_coefficient(
-            t, col[L.P_H0], col[L.P_H1], col[L.P_H2], t_amb, int(col[L.P_CONV_FORM]), col[L.P_CONV_POWER_SCALE]
+            t, col[L.P_H0], col[L.P_H1], col[L.P_H2], sink_c, int(col[L.P_CONV_FORM]), col[L.P_CONV_POWER_SCALE]
         )
-        return h * col[L.P_SURFACE] * (t - t_amb)
+        return h * col[L.P_SURFACE] * (t - sink_c)
 
-    lo, hi = t_amb, t_amb + 1.0
-    while loss(hi) < power_w and hi < t_amb + 1e5:
-        hi = t_amb + 2.0 * (hi - t_amb)
+    lo, hi = sink_c, sink_c + 1.0
+    while loss(hi) < power_w and hi < sink_c + 1e5:
+        hi = sink_c + 2.0 * (hi - sink_c)
     for _ in range(100):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if loss(mid) < power_w else (lo, mid)
     return hi
 
 
-@st.composite
-def scenarios(draw):
-    name = draw(st.sampled_from(preset_names()))
-    voltage = draw(st.floats(1.0, 30.0))
-    params = preset(name).with_changes(**{"driver.supply_voltage_v": voltage})
-    model = ModelConfig(params)
-    for effect_name in draw(st.lists(st.sampled_from(sorted(EFFECTS)), max_size=3, unique=True)):
-        effect = EFFECTS[effect_name]
-        values = {p.name: draw(st.floats(p.lower, p.upper)) for p in effect.parameters}
-        form = draw(st.sampled_from(effect.forms))
-        model = model.with_effect(effect_name, values, form)
-    blocks = draw(st.lists(st.floats(0.0, 1.0), min_size=1, max_size=25))
-    block_ms = draw(st.integers(5, 2500))
-    mode = draw(st.sampled_from(("averaged", "resolved")))
-    return model, np.repeat(np.asarray(blocks), block_ms), mode
-
-
-def _kept(name, voltage_v, effects, blocks, block_ms, mode):
+def _scenario(name, voltage_v, effects, blocks, block_ms, mode):
+    """(model, duty, PWM mode): a preset at a supply voltage with (effect, values, form)s."""
     model = ModelConfig(preset(name).with_changes(**{"driver.supply_voltage_v": voltage_v}))
     for effect_name, values, form in effects:
         model = model.with_effect(effect_name, values, form)
     return model, np.repeat(np.asarray(blocks, dtype=float), block_ms), mode
+
+
+@st.composite
+def scenarios(draw):
+    name = draw(st.sampled_from(preset_names()))
+    voltage = draw(st.floats(1.0, 30.0))
+    effects = []
+    for effect_name in draw(st.lists(st.sampled_from(sorted(EFFECTS)), max_size=3, unique=True)):
+        effect = EFFECTS[effect_name]
+        values = {p.name: draw(st.floats(p.lower, p.upper)) for p in effect.parameters}
+        effects.append((effect_name, values, draw(st.sampled_from(effect.forms))))
+    blocks = draw(st.lists(st.floats(0.0, 1.0), min_size=1, max_size=25))
+    block_ms = draw(st.integers(5, 2500))
+    mode = draw(st.sampled_from(("averaged", "resolved")))
+    return _scenario(name, voltage, effects, blocks, block_ms, mode)
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -80,10 +78,12 @@ def _kept(name, voltage_v, effects, blocks, block_ms, mode):
 # centres divided by an underflowed std, and surroundings warmed by the supply (the
 # temperature bound needed the warmer sink).
 @example(
-    _kept("wire-0.3mm", 10.0, [("coulomb_friction", {"force_n": 0.5}, "default")], [1.0] + [0.0] * 10, 2000, "averaged")
+    _scenario(
+        "wire-0.3mm", 10.0, [("coulomb_friction", {"force_n": 0.5}, "default")], [1.0] + [0.0] * 10, 2000, "averaged"
+    )
 )
 @example(
-    _kept(
+    _scenario(
         "bench-0.5mm-ht-datasheet",
         1.0,
         [("transformation_spread", {"spread_k": 2.225073858507e-311}, "uniform")],
@@ -93,7 +93,7 @@ def _kept(name, voltage_v, effects, blocks, block_ms, mode):
     )
 )
 @example(
-    _kept(
+    _scenario(
         "bench-0.5mm-ht-datasheet",
         15.0,
         [

@@ -1,5 +1,8 @@
 """Behaviour of the simulator core: physics, numerics, sensors, PWM and multiplexer."""
 
+import importlib.util
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -264,13 +267,15 @@ def test_integration_converges_at_first_order_and_is_accurate_at_the_default_ste
     assert np.max(np.abs(coarse - ref[9::10])) < 0.15e-3
 
 
-def _cut_sequence(seed):
-    """Random duty blocks of 0.25 s, every fourth at full power: the wire hits the cut often."""
-    rng = np.random.default_rng(seed)
-    blocks = rng.uniform(0.0, 1.0, size=40)
-    blocks[::4] = 1.0
-    blocks[1::4] = rng.uniform(0.0, 0.1, size=10)
-    return np.repeat(blocks, 250)
+def _integration_bench():
+    """``benchmarks/bench_integration.py``, loaded by file path (``benchmarks`` is not a
+    package): its duty sequences, reference accuracy and goal are the ones tested here."""
+    path = Path(__file__).resolve().parent.parent / "benchmarks" / "bench_integration.py"
+    spec = importlib.util.spec_from_file_location("bench_integration", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def test_the_cut_switches_where_the_position_crosses_it_not_at_a_substep_boundary():
@@ -279,9 +284,8 @@ def test_the_cut_switches_where_the_position_crosses_it_not_at_a_substep_boundar
     until the position falls 0.2 mm, re-heat at ~1000 K/s) whose release time moves by ~2 ms
     per micrometre of position: only the switching band's tighter bounds keep it in phase
     (0.33 mm / 7.4 K without them)."""
-    duty = _cut_sequence(1)
-    rec = ("position_m", "temperature_c", "end_of_travel_cut")
-    fine = {"max_substep_s": 3e-5, "max_temperature_step_k": 0.01, "max_position_step_m": 0.5e-6}
+    bench = _integration_bench()
+    duty, rec, fine = bench.duty_sequence(1, 250), bench.RECORD, bench.REFERENCE_30US
     for voltage in (10.0, 20.0):
         model = preset(f"supply-{voltage:g}v")
         ref = Simulator(model, **fine).run(duty, record=rec)
@@ -291,7 +295,7 @@ def test_the_cut_switches_where_the_position_crosses_it_not_at_a_substep_boundar
         assert np.count_nonzero(np.diff(cut) < 0) > 10  # ... and releases it, many times
         dx = np.abs(out["position_m"] - ref["position_m"])[:, 0]
         dt = np.abs(out["temperature_c"] - ref["temperature_c"])[:, 0]
-        assert dx.max() < 0.1e-3 and dt.max() < 0.5, (voltage, dx.max(), dt.max())
+        assert dx.max() < bench.GOAL_M and dt.max() < bench.GOAL_K, (voltage, dx.max(), dt.max())
 
 
 def test_resolved_pwm_conducts_again_where_the_release_is_crossed_inside_a_pulse():
@@ -301,9 +305,8 @@ def test_resolved_pwm_conducts_again_where_the_release_is_crossed_inside_a_pulse
     default is within 0.1 mm / 0.5 K of a 30 us reference (7.5 K at 20 V when the release
     waited for the sub-step's end). Later the 20 V relay cycle drifts: its releases amplify
     sub-micrometre differences, so the 30 us and a 10 us reference part too."""
-    duty = _cut_sequence(1)
-    rec = ("position_m", "temperature_c", "end_of_travel_cut")
-    fine = {"max_substep_s": 3e-5, "max_temperature_step_k": 0.01, "max_position_step_m": 0.5e-6}
+    bench = _integration_bench()
+    duty, rec, fine = bench.duty_sequence(1, 250), bench.RECORD, bench.REFERENCE_30US
     for voltage in (10.0, 20.0):
         model = preset(f"supply-{voltage:g}v")
         ref = Simulator(model, pwm_mode="resolved", **fine).run(duty, record=rec)
@@ -313,7 +316,7 @@ def test_resolved_pwm_conducts_again_where_the_release_is_crossed_inside_a_pulse
         end = releases[3]
         dx = np.abs(out["position_m"] - ref["position_m"])[:end, 0]
         dt = np.abs(out["temperature_c"] - ref["temperature_c"])[:end, 0]
-        assert dx.max() < 0.1e-3 and dt.max() < 0.5, (voltage, dx.max(), dt.max())
+        assert dx.max() < bench.GOAL_M and dt.max() < bench.GOAL_K, (voltage, dx.max(), dt.max())
 
 
 def test_resolved_and_averaged_pwm_agree_apart_from_ripple():
