@@ -79,9 +79,10 @@ def calibrate(h0: float, rho_a: float, rounds: int = 4) -> tuple[float, float]:
 #: What the bench's README leaves unknown, with physically plausible bounds: natural
 #: convection within +-50 % of the thin-wire correlation (h0 is given at 0.3 mm and scaled to
 #: 0.5 mm by d^-0.556), a preload that keeps a sleigh on a 0.07 N/mm spring in contact, the
-#: recoverable strain of a lightly loaded wire. The expansion coefficient stays at the
-#: report's value: freed, the fit drives it to zero to hide the early start of the
-#: transformation, which is a missing effect for the diagnosis to find, not a calibration.
+#: recoverable strain of a lightly loaded wire. The expansion coefficients stay at NiTi's
+#: values (6.6e-6 /K martensite, 11e-6 /K austenite): freed, the fit drives them to zero to
+#: hide the early start of the transformation, which is a missing effect for the diagnosis to
+#: find, not a calibration.
 BENCH_FIT_PARAMETERS = (
     ("convection.h0_w_m2_k", 40.0, 150.0),
     ("wire.max_transformation_strain", 0.005, 0.05),
@@ -222,6 +223,9 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
     gap = ", ".join(f"{name} {rms['position'] * 1e3:.3f} mm" for name, rms in corrected["fit"].items())
     held = ", ".join(f"{name} {rms['position'] * 1e3:.3f} mm" for name, rms in corrected["heldout"].items())
     found = ", ".join(result.effects_found) or "none"
+    # The round that added the twin's last effect fitted the parameters it ships with.
+    named = [r for r in result.rounds if r["verdict"] in ("effect", "effects")]
+    at_bounds = "; ".join((named or result.rounds)[-1]["parameters_at_bounds"]) or "none"
     twin = ModelConfig(
         replace(
             result.corrected_model.actuator,
@@ -235,7 +239,8 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
         notes=(
             f"Identified by python -m sma_gym.calibration twin from bench-0.5mm-ht-datasheet on {', '.join(TWIN_RUNS)} "
             f"(last 30 % of each held out), {len(result.rounds)} round(s); effects found: {found}. "
-            f"Position RMS, fitted part: {gap}; held-out part: {held}."
+            f"Position RMS, fitted part: {gap}; held-out part: {held}. "
+            f"Fitted parameters at a bound (findings, docs/diagnosis.md): {at_bounds}."
         ),
     )
     if write:

@@ -108,7 +108,8 @@ def pack_params(
     row[L.P_D_A] = w.youngs_modulus_austenite_pa
     row[L.P_D_M] = w.youngs_modulus_martensite_pa
     row[L.P_EPS0] = w.max_transformation_strain
-    row[L.P_ALPHA_TH] = w.thermal_expansion_1_k
+    row[L.P_ALPHA_TH_A] = w.thermal_expansion_austenite_1_k
+    row[L.P_ALPHA_TH_M] = w.thermal_expansion_martensite_1_k
     row[L.P_C_A] = w.stress_coefficient_austenite_pa_k
     row[L.P_C_M] = w.stress_coefficient_martensite_pa_k
     # Nominal latent heat plus the latent_heat effect's change (off = 0); in kelvin per unit xi.
@@ -409,7 +410,7 @@ class Simulator:
         """Static position of a martensitic wire at temperature t0 (thermal expansion only)."""
         p = self.params
         area, length, d_m = p[which, L.P_AREA], p[which, L.P_LENGTH], p[which, L.P_D_M]
-        strain = -p[which, L.P_ALPHA_TH] * (t0 - p[which, L.P_T_AMB])
+        strain = -p[which, L.P_ALPHA_TH_M] * (t0 - p[which, L.P_T_AMB])
         # k x + F_pre = A (sigma0 + D_M (strain - x / l0))
         return area * d_m * strain / (p[which, L.P_K_SPRING] + area * d_m / length)
 

@@ -106,7 +106,7 @@ N_Y = 12
     P_L0,
     P_DM,
     P_DA,
-    P_ALPHA,
+    P_ALPHA_A,
     P_EPS0,
     P_AS,
     P_AF,
@@ -137,8 +137,9 @@ N_Y = 12
     P_FC,
     P_PWM_PERIOD,
     P_SETTLE,
-) = range(39)
-N_P = 39
+    P_ALPHA_M,
+) = range(40)
+N_P = 40
 
 
 @dataclass(frozen=True)
@@ -182,7 +183,8 @@ def pack(
     p[P_L0] = w.length_m
     p[P_DM] = w.youngs_modulus_martensite_pa
     p[P_DA] = w.youngs_modulus_austenite_pa
-    p[P_ALPHA] = w.thermal_expansion_1_k
+    p[P_ALPHA_A] = w.thermal_expansion_austenite_1_k
+    p[P_ALPHA_M] = w.thermal_expansion_martensite_1_k
     p[P_EPS0] = w.max_transformation_strain
     p[P_AS], p[P_AF] = w.austenite_start_c, w.austenite_finish_c
     p[P_MS], p[P_MF] = w.martensite_start_c, w.martensite_finish_c
@@ -306,11 +308,14 @@ def rhs(
     # => xi' [1 - K lam (1 + D alpha / C) - K D eps0 / C] = K [a (1 + D alpha / C) - D eps' / C].
     # K <= 0 and lam, D eps0 / C >= 0, so the bracket is >= 1: always solvable (the recovery
     # stress raises the transformation temperature, i.e. negative feedback).
-    thermo = 1.0 + modulus * p[P_ALPHA] / c_shift
+    # Rate form with the mixture's expansion (our kernel integrates alpha(xi) (T - T_amb) in
+    # closed form instead, so the two differ by the xi' alpha' T term).
+    alpha = xi * p[P_ALPHA_M] + (1.0 - xi) * p[P_ALPHA_A]
+    thermo = 1.0 + modulus * alpha / c_shift
     denominator = 1.0 - slope * lam * thermo - slope * modulus * p[P_EPS0] / c_shift
     xi_rate = slope * (a * thermo - modulus * strain_rate / c_shift) / denominator
     temp_rate = a + lam * xi_rate
-    sigma_rate = modulus * strain_rate - modulus * p[P_ALPHA] * temp_rate - modulus * p[P_EPS0] * xi_rate
+    sigma_rate = modulus * strain_rate - modulus * alpha * temp_rate - modulus * p[P_EPS0] * xi_rate
     friction = p[P_FC] * math.tanh(v / FRICTION_SMOOTHING_M_S)
     force = sigma * p[P_AREA]
     dy[X] = v

@@ -122,6 +122,24 @@ def test_model_config_round_trips_through_json(tmp_path):
     assert np.array_equal(a.run(duty)["position_m"], b.run(duty)["position_m"])
 
 
+def test_a_file_with_the_single_expansion_coefficient_loads_as_it_was_saved(tmp_path):
+    """Model files written before each phase had its own expansion carry one
+    ``thermal_expansion_1_k``: it becomes both phases' value, and a file that gives both
+    names keeps them."""
+    data = ModelConfig(preset("standard")).to_dict()
+    wire = data["actuator"]["wire"]
+    del wire["thermal_expansion_austenite_1_k"], wire["thermal_expansion_martensite_1_k"]
+    wire["thermal_expansion_1_k"] = 8.8e-6
+    path = tmp_path / "old.json"
+    path.write_text(json.dumps(data))
+    w = load_model(str(path)).actuator.wire
+    assert w.thermal_expansion_austenite_1_k == w.thermal_expansion_martensite_1_k == 8.8e-6
+    wire["thermal_expansion_austenite_1_k"] = 11e-6
+    path.write_text(json.dumps(data))
+    w = load_model(str(path)).actuator.wire
+    assert (w.thermal_expansion_austenite_1_k, w.thermal_expansion_martensite_1_k) == (11e-6, 8.8e-6)
+
+
 def test_bad_model_files_give_clear_errors(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")

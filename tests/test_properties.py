@@ -125,7 +125,8 @@ def test_any_input_keeps_the_state_physical(scenario):
     x = rec["position_m"]
     t = rec["temperature_c"]
     t_amb = p.convection.ambient_temperature_c
-    expansion = p.wire.thermal_expansion_1_k * np.maximum(t - t_amb, 0.0) * p.wire.length_m
+    alpha = max(p.wire.thermal_expansion_austenite_1_k, p.wire.thermal_expansion_martensite_1_k)
+    expansion = alpha * np.maximum(t - t_amb, 0.0) * p.wire.length_m
     # Friction may hold the sleigh where the hot, expanded wire left it while the wire cools:
     # the wire then strains elastically, by at most the static force over its softest
     # stiffness (E_M A / l0; the spring in parallel only stiffens it).

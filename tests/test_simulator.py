@@ -1,6 +1,7 @@
 """Behaviour of the simulator core: physics, numerics, sensors, PWM and multiplexer."""
 
 import importlib.util
+import math
 from pathlib import Path
 
 import numpy as np
@@ -81,8 +82,23 @@ def test_heating_below_austenite_start_lengthens_the_wire():
     sim, out = run(PLAY, duty=np.full(30000, 0.04))
     assert out["martensite_fraction"][-1, 0] == 1.0
     assert 50.0 < out["temperature_c"][-1, 0] < 75.0
-    expected = -8.8e-6 * (out["temperature_c"][-1, 0] - 20.0) * 0.273
+    w = preset("standard").wire
+    expected = -w.thermal_expansion_martensite_1_k * (out["temperature_c"][-1, 0] - 20.0) * w.length_m
     assert out["position_m"][-1, 0] == pytest.approx(expected, rel=0.1)
+
+
+def test_a_hot_austenitic_wire_lengthens_by_the_austenite_expansion():
+    """Each phase expands by its own coefficient: a fully contracted wire heated further
+    lengthens by alpha_A (11e-6 /K), not the martensite's 6.6e-6 or their mean 8.8e-6."""
+    model = ModelConfig(PLAY.actuator.with_changes(**{"driver.end_of_travel_m": math.inf}))
+    sim = Simulator([model, model])
+    duty = np.repeat([[0.2, 0.3]], 15000, axis=0)
+    out = sim.run(duty, record=("position_m", "temperature_c", "martensite_fraction"))
+    assert np.all(out["martensite_fraction"][-1] == 0.0)
+    x, t = out["position_m"][-1], out["temperature_c"][-1]
+    assert t[1] - t[0] > 20.0
+    w = preset("standard").wire
+    assert (x[1] - x[0]) / (t[1] - t[0]) == pytest.approx(-w.thermal_expansion_austenite_1_k * w.length_m, rel=0.03)
 
 
 def test_more_preload_raises_the_transformation_temperature():

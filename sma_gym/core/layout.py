@@ -145,7 +145,7 @@ P_T_AMB = 10  # [degC]
 P_D_A = 11  # [Pa]
 P_D_M = 12  # [Pa]
 P_EPS0 = 13  # [-]
-P_ALPHA_TH = 14  # thermal expansion [1/K]
+P_ALPHA_TH_A = 14  # thermal expansion of austenite [1/K]
 P_C_A = 15  # [Pa/K]
 P_C_M = 16  # [Pa/K]
 P_A_S = 17  # [degC]
@@ -212,6 +212,7 @@ P_SURR_FORM = _NODE_END + 42  # physics.thermal.SURROUNDINGS_FORMS
 # integrator, in the end-of-travel cut's switching band (see core.kernel)
 P_DT_BAND = _NODE_END + 43  # largest temperature change per sub-step in the band [K]
 P_DX_BAND = _NODE_END + 44  # largest position change per sub-step in the band [m]
-N_PARAMS = P_DX_BAND + 1
+P_ALPHA_TH_M = _NODE_END + 45  # thermal expansion of martensite [1/K]
+N_PARAMS = P_ALPHA_TH_M + 1
 
 PARAM_FIELDS = {name[2:].lower(): index for name, index in list(globals().items()) if name.startswith("P_")}

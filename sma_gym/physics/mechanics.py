@@ -3,12 +3,13 @@
 Equations (report §5.1-5.3, docs/model.md §2-§3)::
 
     M x'' + c x' + k x + F_pre + f_friction = A sigma
-    sigma = sigma0 + D(xi) (eps0 (1 - xi) - x / l0 - alpha (T - T_amb))      (*)
+    sigma = sigma0 + D(xi) (eps0 (1 - xi) - x / l0 - alpha(xi) (T - T_amb))  (*)
     xi    = clip(xi_old, xi_C(T, sigma), xi_H(T, sigma))                    (see transformation.py)
 
 (*) is the report's rate law sigma' = D eps' + theta_T T' + Omega xi' with Omega = -D eps0,
 theta_T = -D alpha and eps = eps0 - x / l0, integrated in closed form (with Elahinia's
-D(xi) = xi D_M + (1 - xi) D_A). At rest (x = 0, xi = 1, T = T_amb) it gives sigma0 =
+D(xi) = xi D_M + (1 - xi) D_A, and each phase's own expansion, alpha(xi) = xi alpha_M +
+(1 - xi) alpha_A). At rest (x = 0, xi = 1, T = T_amb) it gives sigma0 =
 F_pre / A, which balances the spring preload.
 
 Why implicit, and why this is at least as robust as the report's §5.5
@@ -52,7 +53,7 @@ from sma_gym.physics.transformation import (
 
 class WireConstants(NamedTuple):
     """The wire's constants the implicit step needs, passed as one argument (numba passes a
-    named tuple by value, so this costs nothing over sixteen scalars). Units as in
+    named tuple by value, so this costs nothing over seventeen scalars). Units as in
     :mod:`sma_gym.core.layout`; the kernel builds it from the actuator's parameter row."""
 
     area: float  # A [m^2]
@@ -60,7 +61,8 @@ class WireConstants(NamedTuple):
     d_a: float  # Young's modulus of austenite [Pa]
     d_m: float  # Young's modulus of martensite [Pa]
     eps0: float  # maximum transformation strain [-]
-    alpha: float  # thermal expansion [1/K]
+    alpha_a: float  # thermal expansion of austenite [1/K]
+    alpha_m: float  # thermal expansion of martensite [1/K]
     t_amb: float  # reference temperature of the thermal strain [degC]
     sigma0: float  # rest stress F_pre / A [Pa]
     c_a: float  # stress coefficient of the heating branch [Pa/K]
@@ -104,14 +106,16 @@ def _evaluate(z, stick, x0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes):
 
     Returns (Z, dZ, x1, sigma1, t1).
     """
-    area, length, d_a, d_m, eps0, alpha, t_amb, sigma0 = wire[:8]
-    c_a, c_m, a_s, a_f, m_s, m_f, latent_heat, latent_cool = wire[8:]
+    area, length, d_a, d_m, eps0, alpha_a, alpha_m, t_amb, sigma0 = wire[:9]
+    c_a, c_m, a_s, a_f, m_s, m_f, latent_heat, latent_cool = wire[9:]
     lam = latent_heat if z < z0 else latent_cool
     t1 = t_pred + lam * (z - z0)
     d = z * d_m + (1.0 - z) * d_a
     dd = d_m - d_a
+    # Each phase expands by its own coefficient: alpha(z) = z alpha_M + (1 - z) alpha_A.
+    alpha = z * alpha_m + (1.0 - z) * alpha_a
     sf = eps0 * (1.0 - z) - alpha * (t1 - t_amb)
-    dsf = -eps0 - alpha * lam
+    dsf = -eps0 - alpha * lam - (alpha_m - alpha_a) * (t1 - t_amb)
     if stick:
         x1 = x0
         dx1 = 0.0
