@@ -48,7 +48,9 @@ which moves hysterons irreversibly."""
 
 DEFAULT_MAX_TEMPERATURE_STEP_AT_CUT_K = 0.01
 """Largest temperature change per sub-step in the cut's switching band (from 0.1 mm below
-the release point up to the cut; the general bound applies if smaller). A wire latched at
+the release point up to the cut) while the wire conducts; the general bound applies if
+smaller, and while the cut holds the circuit open (the cooling wire's release is timed by
+the position bound). A wire latched at
 the cut cools ~8 K while its position falls by the 0.2 mm release, so 1 um of position moves
 the release by ~2 ms, and at 20 V the wire re-heats at ~1000 K/s: the relay cycle stays in
 phase only if each release is timed to a fraction of a millisecond. Measured at 20 V on
