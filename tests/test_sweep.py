@@ -113,3 +113,74 @@ def test_a_sweep_runs_every_seed_in_its_own_folder_and_writes_the_table(tmp_path
     assert main(["--seeds", "2", "--quick", "--out", str(out)]) == 2
     assert main(["--seeds", "2", "--quick", "--out", str(out), "--overwrite"]) == 0
     assert sorted(p.name for p in out.glob("seed-*")) == ["seed-0", "seed-1"]
+
+
+FAKE_RESUMED_RUN = """
+import json, sys
+from pathlib import Path
+argv = sys.argv[1:]
+seed, out = int(argv[argv.index("--seed") + 1]), Path(argv[argv.index("--out") + 1])
+out.mkdir(parents=True, exist_ok="--overwrite" in argv)
+from sma_gym_agents.training.config import RunConfig, parse_args  # a run records its configuration first
+(out / "run.json").write_text(json.dumps(RunConfig.from_args(parse_args(argv)).as_dict(), default=str))
+goals = {"RMS step below every baseline": {"agent_mm": 1.0 + seed, "best_baseline_mm": 2.0, "met": True}}
+(out / "goals.json").write_text(json.dumps({"goals": goals}))
+print("trained", seed, "--overwrite" in argv)
+"""
+
+
+def _finished_before(folder, options, seed, agent_mm=None):
+    """A seed folder as an earlier sweep left it: run.json, and goals.json if it finished."""
+    from sma_gym_agents.training.config import RunConfig
+
+    folder.mkdir(parents=True)
+    run = RunConfig.from_args(parse_args([*options, "--seed", str(seed)]))
+    (folder / "run.json").write_text(json.dumps(run.as_dict(), default=str))
+    if agent_mm is not None:
+        goals = {"RMS step below every baseline": {"agent_mm": agent_mm, "best_baseline_mm": 2.0, "met": True}}
+        (folder / "goals.json").write_text(json.dumps({"goals": goals}))
+
+
+def test_a_resumed_sweep_keeps_the_seeds_that_finished_and_reruns_the_others(tmp_path, monkeypatch, capsys):
+    """An interrupted sweep goes on with --resume: finished seeds are kept, an interrupted one
+    is started over, the missing ones run, and the table is over all of them. A folder of
+    another configuration is refused and left as it was."""
+    monkeypatch.setattr(sweep_module, "seed_command", lambda argv: [sys.executable, "-c", FAKE_RESUMED_RUN, *argv])
+    options = ["--quick", "--residual", "none"]
+    out = tmp_path / "sweep"
+    _finished_before(out / "seed-0", options, 0, agent_mm=7.0)  # finished: kept, not retrained
+    _finished_before(out / "seed-1", options, 1)  # interrupted: run.json but no goals.json
+    (out / "seed-1" / "checkpoints").mkdir()
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+
+    # Another configuration in the folder: refused before anything runs or is deleted.
+    assert main(["--seeds", "3", *options, "--n-envs", "2", "--resume", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "seed-0" in err and "n_envs" in err and "another configuration" in err
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    assert not (out / "seed-2").exists() and not (out / "seeds.md").exists()
+
+    assert main(["--seeds", "3", *options, "--workers", "2", "--resume", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "seed 0 kept" in printed
+    assert not (out / "logs" / "seed-0.log").exists()  # never retrained
+    assert (out / "logs" / "seed-1.log").read_text().strip() == "trained 1 True"  # started over
+    assert (out / "logs" / "seed-2.log").read_text().strip() == "trained 2 False"
+    data = json.loads((out / "seeds.json").read_text())
+    assert data["seeds"] == [0, 1, 2] and data["kept"] == [0] and data["failed"] == []
+    assert data["goals"]["RMS step below every baseline"]["agent_mm"]["values"] == [7.0, 2.0, 3.0]
+    assert "kept from before (--resume)" in (out / "seeds.md").read_text()
+
+    # Extending the finished sweep to five seeds runs only seeds 3 and 4.
+    assert main(["--seeds", "5", *options, "--resume", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert all(f"seed {s} kept" in printed for s in (0, 1, 2)) and "seed 3 done" in printed
+    data = json.loads((out / "seeds.json").read_text())
+    assert data["kept"] == [0, 1, 2] and data["goals"]["RMS step below every baseline"]["seeds"] == 5
+
+
+def test_resume_options_are_checked(capsys, tmp_path):
+    assert main(["--resume", "--out", str(tmp_path)]) == 2 and "--resume: only with --seeds" in capsys.readouterr().err
+    assert main(["--seeds", "2", "--resume"]) == 2 and "--out" in capsys.readouterr().err
+    assert main(["--seeds", "2", "--resume", "--overwrite", "--out", str(tmp_path)]) == 2
+    assert "give one of the two" in capsys.readouterr().err

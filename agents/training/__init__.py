@@ -4,6 +4,7 @@
     python train.py --env SMARobust-v0 --algo ppo --timesteps 500000 --n-envs 16 --out runs/robust
     python train.py --quick                # tiny budget, for smoke tests
     python train.py --seeds 5 --workers 2  # five seeds in parallel, goals over seeds (seeds.md)
+    python train.py --seeds 5 --resume --out runs/s  # go on with a sweep cut short
 
 ``train.py`` (at the top of the repository) is a shell over this package:
 

@@ -25,7 +25,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = parse_args(argv)  # --help works without the extra
         require(*TRAIN_NEEDS, purpose="train.py", extra="train")
-        if args.seeds is not None or args.workers is not None:
+        if args.seeds is not None or args.workers is not None or args.resume:
             from sma_gym_agents.training.sweep import check_sweep_args, sweep_main
 
             check_sweep_args(args)

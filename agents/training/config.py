@@ -199,6 +199,13 @@ def build_parser() -> argparse.ArgumentParser:
         "and write every goal over the seeds (interquartile mean, 95 %% bootstrap interval) to <out>/seeds.md and seeds.json",
     )
     p.add_argument("--workers", type=int, help="with --seeds: runs at a time (default min(N, cores))")
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="with --seeds: continue a sweep in its --out folder: seeds that finished there with this same "
+        "configuration are kept, the others (never started, interrupted or failed) are run again; the table is over "
+        "all N seeds",
+    )
     return p
 
 

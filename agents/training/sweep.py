@@ -10,6 +10,10 @@ mean of the middle 50 % of the seeds, :func:`iqm`) with a 95 % percentile bootst
 interval over seeds (:func:`bootstrap_ci`; with one task per goal the stratified
 bootstrap is the plain bootstrap over runs), and how many seeds met the goal. Written to
 ``<out>/seeds.md`` and ``<out>/seeds.json``.
+
+A sweep cut short (a session or a cluster job that ended, a machine that rebooted) goes on
+with ``--resume``: the seeds that finished in ``<out>`` with the same configuration are
+kept and only the others run; ``--seeds`` larger than before extends a finished sweep.
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ BOOTSTRAP_SEED = 0
 CONFIDENCE = 0.95
 SWEEP_OUTPUTS = ("seeds.md", "seeds.json", "logs")
 """What a sweep writes besides its ``seed-<s>`` folders (deleted first by ``--overwrite``)."""
-_NOT_PER_SEED = {"help", "seeds", "workers", "seed", "out", "overwrite"}
+_NOT_PER_SEED = {"help", "seeds", "workers", "seed", "out", "overwrite", "resume"}
 """Options of the sweep itself, not passed on to each seed's run."""
 
 
@@ -92,14 +96,27 @@ def summarise_seeds(
 
 
 def seeds_table(
-    run: RunConfig, seeds: list[int], summary: dict[str, Any], failed: list[int], elapsed_s: float, workers: int
+    run: RunConfig,
+    seeds: list[int],
+    summary: dict[str, Any],
+    failed: list[int],
+    elapsed_s: float,
+    workers: int,
+    kept: list[int] | None = None,
 ) -> str:
     """``seeds.md``: one row per goal, IQM [95 % interval] of the agent and the baseline."""
     budget = f"{run.timesteps} steps{' (--quick)' if run.quick else ''}, {run.n_envs} envs"
+    timing = f"{workers} at a time, {elapsed_s / 60:.1f} min in all"
+    if kept:
+        ran = len(seeds) - len(kept)
+        timing = (
+            f"seeds {', '.join(map(str, kept))} kept from before (--resume); "
+            f"{ran} run now, {workers} at a time, {elapsed_s / 60:.1f} min"
+        )
     lines = [
         f"# {run.algo.upper()} on {run.env_id} over {len(seeds)} seeds",
         "",
-        f"Seeds {', '.join(map(str, seeds))}; {budget} each; {workers} at a time, {elapsed_s / 60:.1f} min in all.",
+        f"Seeds {', '.join(map(str, seeds))}; {budget} each; {timing}.",
         (
             f"Interquartile mean over seeds [95 % percentile bootstrap interval, {BOOTSTRAP_RESAMPLES} resamples]; "
             "each seed's figure is its results.md's (worst case over the harness's noise seeds), in mm."
@@ -178,20 +195,59 @@ def read_goals(folder: Path) -> dict[str, dict[str, Any]]:
     return json.loads((folder / "goals.json").read_text())["goals"]
 
 
+def _as_recorded(config: dict[str, Any]) -> dict[str, Any]:
+    """A configuration as ``run.json`` holds it once read back (tuples as lists, ...)."""
+    return json.loads(json.dumps(config, default=str))
+
+
+def finished_seeds(run: RunConfig, seeds: list[int], out: Path) -> list[int]:
+    """The seeds of ``seeds`` that finished in ``out`` (``seed-<s>/goals.json`` written, as a
+    run writes it last) with ``run``'s configuration, for ``--resume``. ``ValueError``
+    naming the seed and every differing option if a seed folder holds another
+    configuration: its results would be mixed into a table that is not theirs."""
+    kept = []
+    expected = _as_recorded({**run.as_dict(), "seed": None})
+    for seed in seeds:
+        folder = out / f"seed-{seed}"
+        record = folder / "run.json"
+        if not record.is_file():
+            continue
+        try:
+            recorded = {**json.loads(record.read_text()), "seed": None}
+        except (OSError, json.JSONDecodeError) as err:
+            raise ValueError(f"--resume: {record}: not readable as a run's configuration ({err})") from None
+        differs = sorted(k for k in expected.keys() | recorded.keys() if expected.get(k) != recorded.get(k))
+        if differs:
+            shown = "; ".join(f"{k}: {recorded.get(k)!r} there, {expected.get(k)!r} now" for k in differs)
+            raise ValueError(
+                f"--resume: {folder} was trained with another configuration ({shown}); "
+                "resume with the options of that sweep, or choose a new --out"
+            )
+        if (folder / "goals.json").is_file():
+            kept.append(seed)
+    return kept
+
+
 def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int]:
-    """Run ``args.seeds`` seeds ``args.workers`` at a time into ``out``; write ``seeds.md``
-    and ``seeds.json``; ``(table, number of failed seeds)``."""
+    """Run ``args.seeds`` seeds ``args.workers`` at a time into ``out`` (with ``args.resume``,
+    only those that did not finish there before); write ``seeds.md`` and ``seeds.json``;
+    ``(table, number of failed seeds)``."""
     from sma_gym._io import write_json, write_text
 
     parser = build_parser()
     seeds = [run.seed + k for k in range(args.seeds)]
+    kept = finished_seeds(run, seeds, out) if args.resume else []
+    for seed in kept:
+        print(f"train.py: seed {seed} kept (finished in {out / f'seed-{seed}'} before)", flush=True)
     (out / "logs").mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
 
     def one(seed: int) -> int:
-        code = _run_seed_process(
-            seed_argv(parser, args, seed, out / f"seed-{seed}"), out / "logs" / f"seed-{seed}.log", run.threads
-        )
+        argv = seed_argv(parser, args, seed, out / f"seed-{seed}")
+        if (out / f"seed-{seed}").exists():
+            # Only with --resume: an interrupted or failed run of this seed, started over.
+            argv.append("--overwrite")
+        code = _run_seed_process(argv, out / "logs" / f"seed-{seed}.log", run.threads)
         print(
             f"train.py: seed {seed} {'done' if code == 0 else f'FAILED (exit {code}, see logs/seed-{seed}.log)'}",
             flush=True,
@@ -199,19 +255,21 @@ def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int
         return code
 
     # Threads only wait on the child processes, which do the work.
-    with ThreadPoolExecutor(max_workers=args.workers) as pool:
-        codes = dict(zip(seeds, pool.map(one, seeds), strict=True))
+    to_run = [s for s in seeds if s not in kept]
+    with ThreadPoolExecutor(max_workers=max(1, min(args.workers, len(to_run)))) as pool:
+        codes = dict(zip(to_run, pool.map(one, to_run), strict=True))
     elapsed = time.perf_counter() - started
     failed = [s for s, code in codes.items() if code != 0]
     done = {s: read_goals(out / f"seed-{s}") for s in seeds if s not in failed}
     summary = summarise_seeds(done) if done else {}
-    table = seeds_table(run, seeds, summary, failed, elapsed, args.workers)
+    table = seeds_table(run, seeds, summary, failed, elapsed, args.workers, kept)
     write_text(out / "seeds.md", table)
     write_json(
         out / "seeds.json",
         {
             "config": {**run.as_dict(), "seed": None},
             "seeds": seeds,
+            "kept": kept,
             "failed": failed,
             "workers": args.workers,
             "elapsed_s": elapsed,
@@ -251,7 +309,9 @@ def default_sweep_out(run: RunConfig) -> Path:
 def check_sweep_args(args: argparse.Namespace) -> None:
     """``--seeds`` / ``--workers`` checked; ``args.workers`` defaulted to min(N, cores)."""
     if args.seeds is None:
-        raise ValueError("--workers: only with --seeds N")
+        raise ValueError(f"{'--resume' if args.resume else '--workers'}: only with --seeds N")
+    if args.resume and args.overwrite:
+        raise ValueError("--resume keeps the finished seeds of --out and --overwrite deletes them: give one of the two")
     if args.seeds < 1:
         raise ValueError(f"--seeds {args.seeds}: expected an integer >= 1")
     if args.workers is None:
@@ -265,8 +325,10 @@ def sweep_main(args: argparse.Namespace, run: RunConfig) -> int:
     0, or 1 if seeds failed."""
     from sma_gym._io import check_output_folder, locked_folder
 
+    if args.resume and not args.out:
+        raise ValueError("--resume: give the --out folder of the sweep to continue")
     out = Path(args.out) if args.out else default_sweep_out(run)
-    check_output_folder(out, must_be_empty=not args.overwrite)
+    check_output_folder(out, must_be_empty=not (args.overwrite or args.resume))
     with locked_folder(out):
         if args.overwrite:
             prepare_sweep_out(out)
