@@ -47,6 +47,15 @@ def test_every_problem_is_reported_with_file_row_and_column(tmp_path):
     assert digest(f) == before
 
 
+def test_a_malformed_row_or_cell_is_named_once(tmp_path):
+    """A row with a wrong field count, or a cell that is no number, is one problem: it is
+    not reported again as missing values it never had."""
+    f = write(tmp_path / "rows.csv", "t,duty,position\n0,0,0\n0.001,0,0,7\n0.002,abc,0\n0.003,0.1,0\n")
+    with pytest.raises(MeasuredDataError) as err:
+        load_trace(f)
+    assert err.value.problems == [f"{f}:3: 4 fields, expected 3", f"{f}:4:duty: 'abc' is not a number"]
+
+
 @pytest.mark.parametrize(
     "text, needle",
     [

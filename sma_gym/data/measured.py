@@ -153,9 +153,11 @@ def _parse_float(text: str) -> float:
     return float(text)
 
 
-def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndarray], list[str]]:
-    """The CSV's columns by header name, and the problems found reading them (a file that
-    cannot be read as a table at all raises at once)."""
+def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndarray], list[str], dict[str, np.ndarray]]:
+    """The CSV's columns by header name, the problems found reading them (a file that
+    cannot be read as a table at all raises at once), and per column the rows whose cell
+    is already reported (a wrong field count, a text that is no number), so that the value
+    checks do not report them again as missing."""
     problems: list[str] = []
     try:
         text = read_text(p, MAX_CSV_BYTES, "measured data")
@@ -186,24 +188,29 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
             "(the diagnosis fits more than ten samples after holding out the last 30 % of a file)"
         )
     columns: dict[str, np.ndarray] = {name: np.full(len(data_rows), math.nan) for name in header}
+    reported = {name: np.zeros(len(data_rows), dtype=bool) for name in header}
     for i, row in enumerate(data_rows):
         line = i + 2
         if len(row) != len(header):
             problems.append(f"{where}:{line}: {len(row)} fields, expected {len(header)}")
+            for name in header:
+                reported[name][i] = True
             continue
         for name, text in zip(header, row):
             try:
                 columns[name][i] = _parse_float(text)
             except ValueError:
                 problems.append(f"{where}:{line}:{name}: {text!r} is not a number")
-    return columns, problems
+                reported[name][i] = True
+    return columns, problems, reported
 
 
-def _value_problems(columns: dict[str, np.ndarray], where: str) -> list[str]:
-    """Missing, non-finite, non-increasing and out-of-range values, each with file:row:column."""
+def _value_problems(columns: dict[str, np.ndarray], where: str, reported: dict[str, np.ndarray]) -> list[str]:
+    """Missing, non-finite, non-increasing and out-of-range values, each with file:row:column
+    (``reported``: cells already named by :func:`_read_columns`, not named again)."""
     problems: list[str] = []
     for name in REQUIRED:
-        bad = np.flatnonzero(~np.isfinite(columns[name]))
+        bad = np.flatnonzero(~np.isfinite(columns[name]) & ~reported[name])
         for i in bad[:20]:
             problems.append(f"{where}:{i + 2}:{name}: missing or non-finite value (required)")
         if bad.size > 20:
@@ -303,8 +310,8 @@ def load_trace(path: str | Path, min_rows: int = 2) -> MeasuredTrace:
         raise MeasuredDataError([f"{where}: file does not exist"])
     if p.is_dir():
         raise MeasuredDataError([f"{where}: is a directory, expected a CSV file"])
-    columns, problems = _read_columns(p, where, min_rows)
-    problems += _value_problems(columns, where)
+    columns, problems, reported = _read_columns(p, where, min_rows)
+    problems += _value_problems(columns, where, reported)
     conditions, sidecar_problems = _read_sidecar(p)
     problems += sidecar_problems
     if problems:
