@@ -49,6 +49,43 @@ def test_summary_counts_seeds_that_met_each_goal():
     assert entry["best_baseline_mm"]["ci95"] == [1.0, 1.0]
 
 
+def test_a_goal_is_met_over_seeds_only_if_the_interval_meets_it():
+    from sma_gym_agents.training.compare import GOALS, ROBUST, SELF_SENSING, TRACKING
+
+    step, sine = GOALS[ROBUST]  # strict: agent < best baseline's worst case
+
+    def over(goal, values, baseline_mm):
+        return {
+            s: {
+                goal.name: {
+                    "agent_mm": v,
+                    goal.baseline_key: baseline_mm,
+                    "met": goal.meets(v * 1e-3, baseline_mm * 1e-3),
+                }
+            }
+            for s, v in enumerate(values)
+        }
+
+    def status(goal, values, baseline_mm):
+        return summarise_seeds(over(goal, values, baseline_mm), goals=(goal,))[goal.name]["status"]
+
+    assert status(step, [3.59, 3.64, 3.60, 3.62, 3.61], 3.735) == "met"
+    # The IQM beats the baseline but two seeds do not: the interval reaches above it.
+    assert status(step, [0.90, 1.01, 0.95, 1.02, 0.97], 1.006) == "missed"
+    assert status(step, [0.5, 1.5, 1.6], 1.0) == "missed"  # one seed in three
+    assert status(step, [0.5], 1.0) == "one seed"  # no interval to judge by
+    # Not strict, within a factor: 2x the best baseline with a position sensor.
+    ss_step = GOALS[SELF_SENSING][0]
+    assert status(ss_step, [0.90, 0.91, 0.92], 0.5) == "met"
+    assert status(ss_step, [0.90, 1.2, 1.3], 0.5) == "missed"
+    # Against a named baseline with a slack (overshoot no larger than VSC3 + FF's 0).
+    overshoot = GOALS[TRACKING][2]
+    assert status(overshoot, [0.0, 0.0, 0.0, 0.0], 0.0) == "met"
+    assert status(overshoot, [0.0, 0.0, 0.0, 0.915, 0.066], 0.0) == "missed"
+    # Without the definitions the summary counts but gives no verdict.
+    assert "status" not in summarise_seeds(over(step, [1.0, 2.0], 3.0))[step.name]
+
+
 def test_each_seed_runs_train_py_with_the_same_options_and_its_own_seed_and_folder(tmp_path):
     parser = build_parser()
     args = parse_args(
@@ -107,8 +144,10 @@ def test_a_sweep_runs_every_seed_in_its_own_folder_and_writes_the_table(tmp_path
     assert data["seeds"] == [10, 11, 12, 13] and data["failed"] == [13]
     goal = data["goals"]["RMS step below every baseline"]
     assert goal["met"] == 2 and goal["seeds"] == 3 and goal["agent_mm"]["iqm"] == pytest.approx(1.6)
+    assert goal["status"] == "missed"  # the env's goal definition applied: 1.6 mm is not below 1.0 mm
     table = (out / "seeds.md").read_text()
-    assert "| RMS step below every baseline | 1.600 [" in table and "| 2/3 |" in table and "Failed seeds" in table
+    assert "| RMS step below every baseline | 1.600 [" in table and "| 2/3 | missed |" in table
+    assert "Failed seeds" in table
     # A sweep never mixes with another's files: refused, then replaced with --overwrite.
     assert main(["--seeds", "2", "--quick", "--out", str(out)]) == 2
     assert main(["--seeds", "2", "--quick", "--out", str(out), "--overwrite"]) == 0

@@ -73,8 +73,13 @@ class Goal:
 
         a = figure(agent)
         b = figure(self.against) if self.against else min(figure(p) for p in baselines)
-        met = a < self.factor * b if self.strict else a <= self.factor * b + self.slack_m
-        return {"agent_mm": a * 1e3, self.baseline_key: b * 1e3, "met": met}
+        return {"agent_mm": a * 1e3, self.baseline_key: b * 1e3, "met": self.meets(a, b)}
+
+    def meets(self, agent_m: float, baseline_m: float) -> bool:
+        """Whether the agent's figure meets this goal against the baseline's (both in metres)."""
+        if self.strict:
+            return agent_m < self.factor * baseline_m
+        return agent_m <= self.factor * baseline_m + self.slack_m
 
 
 GOALS: dict[str, tuple[Goal, ...]] = {

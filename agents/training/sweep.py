@@ -8,7 +8,8 @@ folder (``<out>/seed-<s>/``, the single-run code path unchanged; its output in
 "Deep RL at the edge of the statistical precipice", 2021): the interquartile mean (the
 mean of the middle 50 % of the seeds, :func:`iqm`) with a 95 % percentile bootstrap
 interval over seeds (:func:`bootstrap_ci`; with one task per goal the stratified
-bootstrap is the plain bootstrap over runs), and how many seeds met the goal. Written to
+bootstrap is the plain bootstrap over runs), how many seeds met the goal, and the verdict
+(:func:`goal_status`: met only if the interval's upper end meets it). Written to
 ``<out>/seeds.md`` and ``<out>/seeds.json``.
 
 A sweep cut short (a session or a cluster job that ended, a machine that rebooted) goes on
@@ -24,13 +25,17 @@ import os
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sma_gym_agents.training.config import ROOT, RunConfig, build_parser, parse_args
+
+if TYPE_CHECKING:  # compare imports the evaluation harness; the sweep needs it only at the end
+    from sma_gym_agents.training.compare import Goal
 
 BOOTSTRAP_RESAMPLES = 2_000
 BOOTSTRAP_SEED = 0
@@ -69,12 +74,32 @@ def bootstrap_ci(
     return float(lo), float(hi)
 
 
+def goal_status(goal: Goal, entry: dict[str, Any]) -> str:
+    """The verdict over seeds on one goal (``entry``: a :func:`summarise_seeds` entry).
+
+    ``"met"`` when the upper end of the agent's 95 % interval meets the goal against the
+    baseline's IQM, and more than one seed met it (a goal only one seed met is an anecdote);
+    ``"missed"`` otherwise; ``"one seed"`` when there is only one (no interval to judge).
+    """
+    if entry["seeds"] < 2:
+        return "one seed"
+    baseline_mm = entry[goal.baseline_key]["iqm"]
+    upper_mm = entry["agent_mm"]["ci95"][1]
+    met = entry["met"] >= 2 and goal.meets(upper_mm * 1e-3, baseline_mm * 1e-3)
+    return "met" if met else "missed"
+
+
 def summarise_seeds(
-    goals_by_seed: dict[int, dict[str, dict[str, Any]]], resamples: int = BOOTSTRAP_RESAMPLES
+    goals_by_seed: dict[int, dict[str, dict[str, Any]]],
+    resamples: int = BOOTSTRAP_RESAMPLES,
+    goals: Sequence[Goal] = (),
 ) -> dict[str, Any]:
     """Per goal: each figure (``agent_mm``, the baseline's) as per-seed values, IQM and
     95 % interval, and how many seeds met the goal. ``goals_by_seed``: seed -> the
-    ``goals`` of that run's ``goals.json``."""
+    ``goals`` of that run's ``goals.json``; ``goals``: the run's goal definitions
+    (:data:`~sma_gym_agents.training.compare.GOALS`), which add each one's ``status``
+    (:func:`goal_status`)."""
+    defined = {g.name: g for g in goals}
     seeds = sorted(goals_by_seed)
     names = list(dict.fromkeys(name for s in seeds for name in goals_by_seed[s]))
     out: dict[str, Any] = {}
@@ -91,6 +116,8 @@ def summarise_seeds(
             }
         entry["met"] = sum(bool(r["met"]) for r in runs)
         entry["seeds"] = len(runs)
+        if name in defined:
+            entry["status"] = goal_status(defined[name], entry)
         out[name] = entry
     return out
 
@@ -122,8 +149,13 @@ def seeds_table(
             "each seed's figure is its results.md's (worst case over the harness's noise seeds), in mm."
         ),
         "",
-        "| goal | agent | baseline | met |",
-        "|---|---|---|---|",
+        (
+            "Goal status: met when the upper end of the agent's interval meets the goal against the "
+            "baseline's IQM and more than one seed met it."
+        ),
+        "",
+        "| goal | agent | baseline | seeds met | goal status |",
+        "|---|---|---|---|---|",
     ]
 
     def cell(figure: dict[str, Any]) -> str:
@@ -131,9 +163,10 @@ def seeds_table(
         return f"{figure['iqm']:.3f} [{lo:.3f}, {hi:.3f}]"
 
     for name, entry in summary.items():
-        baseline = next(k for k in entry if k not in ("agent_mm", "met", "seeds"))
+        baseline = next(k for k in entry if k not in ("agent_mm", "met", "seeds", "status"))
         lines.append(
-            f"| {name} | {cell(entry['agent_mm'])} | {cell(entry[baseline])} ({baseline.removesuffix('_mm')}) | {entry['met']}/{entry['seeds']} |"
+            f"| {name} | {cell(entry['agent_mm'])} | {cell(entry[baseline])} ({baseline.removesuffix('_mm')}) "
+            f"| {entry['met']}/{entry['seeds']} | {entry.get('status', '–')} |"
         )
     if failed:
         lines += ["", f"Failed seeds (see logs/): {', '.join(map(str, failed))}; the table is over the others."]
@@ -261,7 +294,9 @@ def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int
     elapsed = time.perf_counter() - started
     failed = [s for s, code in codes.items() if code != 0]
     done = {s: read_goals(out / f"seed-{s}") for s in seeds if s not in failed}
-    summary = summarise_seeds(done) if done else {}
+    from sma_gym_agents.training.compare import GOALS, goal_key
+
+    summary = summarise_seeds(done, goals=GOALS[goal_key(run)]) if done else {}
     table = seeds_table(run, seeds, summary, failed, elapsed, args.workers, kept)
     write_text(out / "seeds.md", table)
     write_json(
