@@ -109,7 +109,24 @@ RENDER_MODE = """
 
 INFO_KEYS = task.info_list(task.INFO)
 
-VERSION_0_2 = """
+MODEL_CHANGE = """
+    * main (unreleased): **the dynamics changed under the same id.** The
+      nominal wire is issue 11's (docs/model.md): Preisach-type minor loops whose hysteron
+      widths are spread (the wire moves back within about a kelvin of a reversal, where
+      0.2's play law crossed the whole 15 K first), a 6 K spread of transformation
+      temperatures, 24.2 J/g latent heat, each phase's own thermal expansion, h0 and the
+      austenite resistivity recalibrated, and the end-of-travel cut integrated with a tighter
+      bound in its switching band. Spaces, rewards and `info` are unchanged.
+      Results measured under this id before and after this change are not comparable; the
+      id is still `-v0` (a version bump is pending), so record the package's commit with
+      results. 0.2's minor loops, onset and energy come back with a `model` whose wire has
+      `minor_loop_law="play"`, `transformation_spread_k=0` and `latent_heat_j_kg=0` (not
+      bit for bit: h0 and the resistivity were calibrated with the new terms).
+    """
+
+VERSION_0_2 = (
+    MODEL_CHANGE
+    + """
     * 0.2: `info` is flat and JSON-serialisable (`reference_description()` and the drawn
       condition replace the nested `info["reference"]` / `info["condition"]`;
       `reference_kind` and `condition_*` carry their numbers); unknown kwargs raise
@@ -119,3 +136,4 @@ VERSION_0_2 = """
       in its signature. Dynamics and rewards unchanged, so the ids stay `-v0`.
     * 0.1: first release.
     """
+)

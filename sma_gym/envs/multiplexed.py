@@ -92,6 +92,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
             "- No `pwm_mode`: the physics is always PWM-resolved.",
         ),
         Version_History=docs.join(
+            docs.MODEL_CHANGE,
             """
             * 0.3: `scheme` added (`"shared_budget"`: one duty budget for the bank, shares
               scaled by 1 / sum when they sum past 1, pulses laid end to end); the default
@@ -102,7 +103,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
               longer switches matplotlib's global backend; the contract is on the class and
               the keyword arguments in its signature.
             * 0.1: first release.
-            """
+            """,
         ),
     )
 
@@ -272,7 +273,7 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
             - every argument of :class:`SMAMultiplexedEnv` except `render_mode`.
             """
         ),
-        Version_History="* 0.3: first release.",
+        Version_History=docs.join(docs.MODEL_CHANGE, "* 0.3: first release."),
     )
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}

@@ -109,6 +109,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             "variant only, as for ``SMARobust-v0``.",
         ),
         Version_History=docs.join(
+            docs.MODEL_CHANGE,
             """
             * 0.2: `autoreset_mode` (default `NEXT_STEP`; 0.1 always ran `SAME_STEP`),
               `reset_mask`, `render_mode`; `info` without the object arrays `reference`
@@ -117,7 +118,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
               `sma_gym:` prefix; the contract is on the class and the keyword arguments in
               its signature.
             * 0.1: first release.
-            """
+            """,
         ),
     )
 
