@@ -125,7 +125,8 @@ if seed == 13:
     sys.exit(3)
 out.mkdir(parents=True)
 goals = {"RMS step below every baseline": {"agent_mm": 0.5 + 0.1 * seed, "best_baseline_mm": 1.0, "met": seed < 12}}
-(out / "goals.json").write_text(json.dumps({"goals": goals}))
+code = {"sma_gym_version": "0.1.0", "commit": ("a" if seed < 12 else "b") * 40, "modified": False}
+(out / "goals.json").write_text(json.dumps({"goals": goals, "provenance": code}))
 print("trained", seed)
 """
 
@@ -148,6 +149,9 @@ def test_a_sweep_runs_every_seed_in_its_own_folder_and_writes_the_table(tmp_path
     table = (out / "seeds.md").read_text()
     assert "| RMS step below every baseline | 1.600 [" in table and "| 2/3 | missed |" in table
     assert "Failed seeds" in table
+    # Seed 12 ran other code than 10 and 11: the table says so, and seeds.json keeps each.
+    assert "did not all run the same code" in table and "seeds 10, 11: sma-gym 0.1.0, commit aaaaaaaaaaaa" in table
+    assert data["provenance"]["12"]["commit"] == "b" * 40
     # A sweep never mixes with another's files: refused, then replaced with --overwrite.
     assert main(["--seeds", "2", "--quick", "--out", str(out)]) == 2
     assert main(["--seeds", "2", "--quick", "--out", str(out), "--overwrite"]) == 0
@@ -163,7 +167,8 @@ out.mkdir(parents=True, exist_ok="--overwrite" in argv)
 from sma_gym_agents.training.config import RunConfig, parse_args  # a run records its configuration first
 (out / "run.json").write_text(json.dumps(RunConfig.from_args(parse_args(argv)).as_dict(), default=str))
 goals = {"RMS step below every baseline": {"agent_mm": 1.0 + seed, "best_baseline_mm": 2.0, "met": True}}
-(out / "goals.json").write_text(json.dumps({"goals": goals}))
+code = {"sma_gym_version": "0.1.0", "commit": ("a" if seed < 12 else "b") * 40, "modified": False}
+(out / "goals.json").write_text(json.dumps({"goals": goals, "provenance": code}))
 print("trained", seed, "--overwrite" in argv)
 """
 

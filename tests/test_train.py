@@ -37,6 +37,10 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
     assert len(list((out / "evaluation").glob("*.png"))) >= 4
     goals = json.loads((out / "goals.json").read_text())
     assert goals["goals"] and len(goals["validation_references"]) == 4  # --quick validates on four
+    # The code it ran: the model changes between commits under the same env id.
+    from sma_gym.provenance import describe, provenance
+
+    assert goals["provenance"] == provenance() and describe(goals["provenance"]) in results
     # An ordinary SB3 zip: SAC.load opens it; its card says how it observes (history
     # features, residual base) and load_policy rebuilds that to act on the raw env.
     from stable_baselines3 import SAC

@@ -17,9 +17,11 @@ def train_and_compare(
     run: RunConfig, out: Path, *, overwrite: bool = False, progress: bool = True
 ) -> tuple[str, dict[str, Any]]:
     """Train ``run`` into ``out`` and compare its best model with the baselines; write
-    ``run.json``, ``results.md`` and ``goals.json``. ``(results.md text, goals)``;
+    ``run.json``, ``results.md`` and ``goals.json`` (with the code's provenance: the model
+    changes between commits under the same env id). ``(results.md text, goals)``;
     ``ValueError`` if ``out`` is not new or empty (unless ``overwrite``) or is in use."""
     from sma_gym._io import check_output_folder, locked_folder, write_json, write_text
+    from sma_gym.provenance import describe, provenance
 
     # Every argument, --out included, is checked before anything is created.
     check_output_folder(out, must_be_empty=not overwrite)
@@ -31,13 +33,14 @@ def train_and_compare(
         if overwrite:
             prepare_out(out)
         write_json(out / "run.json", run.as_dict(), default=str)
+        source = provenance()  # at the start: the code this process loaded, whatever is committed meanwhile
         started = time.perf_counter()
         info = train(run, out, progress=progress)
         table, goals = compare(run, out)
         total = time.perf_counter() - started
         table += (
             f"\nTraining {info.train_time_s / 60:.1f} min, training + evaluation {total / 60:.1f} min "
-            f"({run.timesteps} steps, {run.n_envs} envs, seed {run.seed}).\n"
+            f"({run.timesteps} steps, {run.n_envs} envs, seed {run.seed}); {describe(source)}.\n"
         )
         write_text(out / "results.md", table)
         write_json(
@@ -47,6 +50,7 @@ def train_and_compare(
                 "train_time_s": info.train_time_s,
                 "total_time_s": total,
                 "validation_references": info.validation_references,
+                "provenance": source,
             },
         )
     return table, goals

@@ -130,8 +130,10 @@ def seeds_table(
     elapsed_s: float,
     workers: int,
     kept: list[int] | None = None,
+    sources: dict[int, dict[str, Any] | None] | None = None,
 ) -> str:
-    """``seeds.md``: one row per goal, IQM [95 % interval] of the agent and the baseline."""
+    """``seeds.md``: one row per goal, IQM [95 % interval] of the agent and the baseline;
+    ``sources``: each finished seed's provenance (:func:`read_provenance`)."""
     budget = f"{run.timesteps} steps{' (--quick)' if run.quick else ''}, {run.n_envs} envs"
     timing = f"{workers} at a time, {elapsed_s / 60:.1f} min in all"
     if kept:
@@ -170,6 +172,8 @@ def seeds_table(
         )
     if failed:
         lines += ["", f"Failed seeds (see logs/): {', '.join(map(str, failed))}; the table is over the others."]
+    if sources:
+        lines += ["", provenance_line(sources)]
     return "\n".join(lines) + "\n"
 
 
@@ -226,6 +230,26 @@ def run_seed(options: list[str], seed: int, out: str | Path) -> dict[str, Any]:
 def read_goals(folder: Path) -> dict[str, dict[str, Any]]:
     """The goals a finished run wrote to ``folder/goals.json``."""
     return json.loads((folder / "goals.json").read_text())["goals"]
+
+
+def read_provenance(folder: Path) -> dict[str, Any] | None:
+    """The code a finished run recorded in ``folder/goals.json`` (None before it did)."""
+    return json.loads((folder / "goals.json").read_text()).get("provenance")
+
+
+def provenance_line(sources: dict[int, dict[str, Any] | None]) -> str:
+    """``seeds.md``'s line on the code the seeds ran: one line if they all ran the same,
+    otherwise each group of seeds with its code and a warning (kept seeds of ``--resume``
+    may come from an older commit, whose model may differ)."""
+    from sma_gym.provenance import describe
+
+    groups: dict[str, list[int]] = {}
+    for seed, record in sorted(sources.items()):
+        groups.setdefault(describe(record), []).append(seed)
+    if len(groups) == 1:
+        return f"Code: {next(iter(groups))} (every seed)."
+    parts = "; ".join(f"seeds {', '.join(map(str, seeds))}: {text}" for text, seeds in groups.items())
+    return f"Code: **the seeds did not all run the same code** ({parts}); compare them only if the model is the same."
 
 
 def _as_recorded(config: dict[str, Any]) -> dict[str, Any]:
@@ -297,7 +321,8 @@ def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int
     from sma_gym_agents.training.compare import GOALS, goal_key
 
     summary = summarise_seeds(done, goals=GOALS[goal_key(run)]) if done else {}
-    table = seeds_table(run, seeds, summary, failed, elapsed, args.workers, kept)
+    sources = {s: read_provenance(out / f"seed-{s}") for s in done}
+    table = seeds_table(run, seeds, summary, failed, elapsed, args.workers, kept, sources)
     write_text(out / "seeds.md", table)
     write_json(
         out / "seeds.json",
@@ -316,6 +341,7 @@ def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int
                 "seed": BOOTSTRAP_SEED,
             },
             "goals": summary,
+            "provenance": {str(s): record for s, record in sources.items()},
         },
         default=str,
     )
