@@ -122,11 +122,12 @@ def _cross_validate(
     from sma_gym._io import locked_folder, write_json, write_text
     from sma_gym.diagnosis.report import cross_validation_table
     from sma_gym.diagnosis.workflow import cross_validate
+    from sma_gym.provenance import provenance
 
     with locked_folder(out):
         cv = cross_validate(fit, nominal, effects, progress=progress, max_rounds=args.max_rounds, threads=args.threads)
         table = cross_validation_table(cv)
-        write_json(out / "cross_validation.json", cv)
+        write_json(out / "cross_validation.json", {**cv, "provenance": provenance()})
         write_text(out / "cross_validation.md", "# Leave one run out\n\n" + table)
     print(json.dumps(cv) if args.json else table, end="" if not args.json else "\n")
     return 0

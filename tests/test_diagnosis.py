@@ -186,6 +186,8 @@ def test_cli_writes_report_model_and_json_and_the_env_runs_on_the_correction(tmp
     assert result["where"]["files"][0]["regimes"]["position"]
     out = tmp_path / "out"
     assert (out / "diagnosis.md").read_text().startswith("# Diagnosis")
+    written = json.loads((out / "diagnosis.json").read_text())
+    assert written["verdict"] == "effect" and written["provenance"]["sma_gym_version"]  # the code beside the verdict
     assert len(list(out.glob("*.png"))) >= 3
     # The corrected model loads and an env runs on it.
     model = load_model(str(out / "corrected_model.json"))
@@ -281,6 +283,8 @@ def test_cross_validation_predicts_every_run_from_the_others(tmp_path, capsys):
         line for line in (tmp_path / "cv" / "cross_validation.md").read_text().splitlines() if line.startswith("| run")
     ]
     assert len(rows) == 3
+    written = json.loads((tmp_path / "cv" / "cross_validation.json").read_text())
+    assert written["folds"] == cv["folds"] and "commit" in written["provenance"]
     # Held-out files and a single file make no sense here.
     assert main(["diagnose", str(paths[0]), "--cross-validate", "--out", str(tmp_path / "x")]) == 2
 

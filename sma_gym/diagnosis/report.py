@@ -267,7 +267,10 @@ def write_outputs(
     """
     out.mkdir(parents=True, exist_ok=True)
     report = write_report(result, out, fit_traces, heldout_traces, nominal)
-    write_json(out / "diagnosis.json", result.as_dict(), default=json_default)
+    from sma_gym.provenance import provenance
+
+    # The code beside the verdicts: the nominal model changes between commits.
+    write_json(out / "diagnosis.json", {**result.as_dict(), "provenance": provenance()}, default=json_default)
     model_path = result.corrected_model.save(out / "corrected_model.json")
     return {"model": model_path, "json": out / "diagnosis.json", "report": report}
 
