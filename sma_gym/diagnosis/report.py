@@ -16,6 +16,7 @@ from sma_gym.diagnosis import fitting
 from sma_gym.diagnosis.workflow import CONTROL_PERIOD_S, Diagnosis
 from sma_gym.model import ModelConfig
 from sma_gym.plotting import new_figure, save
+from sma_gym.provenance import provenance
 
 _SCALE = {"position": (1e3, "mm"), "resistance": (1.0, "ohm"), "current": (1.0, "A"), "voltage": (1.0, "V")}
 
@@ -267,8 +268,6 @@ def write_outputs(
     """
     out.mkdir(parents=True, exist_ok=True)
     report = write_report(result, out, fit_traces, heldout_traces, nominal)
-    from sma_gym.provenance import provenance
-
     # The code beside the verdicts: the nominal model changes between commits.
     write_json(out / "diagnosis.json", {**result.as_dict(), "provenance": provenance()}, default=json_default)
     model_path = result.corrected_model.save(out / "corrected_model.json")
