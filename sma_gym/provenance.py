@@ -1,8 +1,10 @@
 """Where a result came from: the package's version and, from a git checkout, its commit.
 
 The nominal model changes between commits under the same env ids (the envs' Version
-History), so a figure is only comparable with figures of the same model. Every result file
-the package's commands write records :func:`provenance` beside its figures.
+History), so a figure is only comparable with figures of the same model. Training runs
+(``goals.json``, ``results.md``, ``seeds.md``) and the diagnosis (``diagnosis.json``,
+``cross_validation.json``) record :func:`provenance` beside their figures; ``sma-gym
+fidelity`` and ``sma-gym evaluate`` do not yet.
 """
 
 from __future__ import annotations
