@@ -9,6 +9,7 @@ from pathlib import Path
 from sma_gym._io import write_text
 from sma_gym.electrical.multiplexer import io_counts
 from sma_gym.plotting import new_figure, save
+from sma_gym.provenance import describe, provenance
 from sma_gym_agents.controllers import ALL_SPECS
 from sma_gym_agents.evaluation import CHAPTER_8_CASES, TABLE_6_1, Results
 
@@ -270,6 +271,8 @@ def write_report(results: Results, out: Path) -> list[Path]:
         )
         axes[0, 0].legend(fontsize=7)
         paths.append(save(fig, out / "fig9_multiplexed.png"))
+    # The nominal model changes under the same env ids: the report names the code it measured.
+    sections += [f"Code: {describe(provenance())}."]
     md = out / "evaluation.md"
     write_text(md, "\n".join(sections) + "\n")
     write_text(out / "evaluation.json", results.to_json() + "\n")

@@ -50,6 +50,7 @@ import numpy as np
 from sma_gym.electrical.multiplexer import io_counts
 from sma_gym.model import ModelConfig, load_model
 from sma_gym.params import preset
+from sma_gym.provenance import describe, provenance
 from sma_gym.report_targets import CONTROL_ERROR_ABS_MM, OVERSHOOT_ABS_MM, Target, load_targets, target, within_factor
 from sma_gym.simulator import Simulator
 
@@ -236,13 +237,19 @@ def write_outputs(result: FidelityResult, out: str | None, as_json: bool) -> int
     if as_json:
         print(
             json.dumps(
-                {"rows": [r.as_dict() for r in result.rows], "summary": asdict(result.summary)},
+                {
+                    "rows": [r.as_dict() for r in result.rows],
+                    "summary": asdict(result.summary),
+                    "provenance": provenance(),
+                },
                 indent=1,
                 ensure_ascii=False,
             )
         )
     else:
         print(format_table(result.rows))
+        # The nominal model changes under the same ids: a table names the code it measured.
+        print(f"Code: {describe(provenance())}")
         if out:
             print(f"\nplots written to {Path(out).resolve()}")
     return 0 if result.summary.counts["fail"] == 0 else 1

@@ -2,9 +2,11 @@
 
 The nominal model changes between commits under the same env ids (the envs' Version
 History), so a figure is only comparable with figures of the same model. Training runs
-(``goals.json``, ``results.md``, ``seeds.md``) and the diagnosis (``diagnosis.json``,
-``cross_validation.json``) record :func:`provenance` beside their figures; ``sma-gym
-fidelity`` and ``sma-gym evaluate`` do not yet.
+(``goals.json``, ``results.md``, ``seeds.md``), the diagnosis (``diagnosis.json``,
+``cross_validation.json``), ``sma-gym fidelity`` (the table's last line, ``--json``'s
+``provenance``) and ``sma-gym evaluate`` (``evaluation.md``'s last line) record
+:func:`provenance` beside their figures. ``evaluation.json`` stays the list of records it
+always was, so that readers of it do not break.
 """
 
 from __future__ import annotations

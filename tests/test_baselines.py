@@ -12,6 +12,7 @@ import pytest
 from stable_baselines3.common.evaluation import evaluate_policy
 
 from sma_gym.cli import main
+from sma_gym.provenance import describe, provenance
 from sma_gym_agents import ALL_SPECS, ControllerPolicy, ResistanceCalibration
 from sma_gym_agents.controllers import PID, VSC3, VSC4, with_feedforward
 from sma_gym_agents.evaluation import (
@@ -211,6 +212,7 @@ def test_cli_prints_every_metric_as_json_and_writes_the_report(tmp_path, capsys)
     assert all({"policy", "condition", "reference", "metric", "value"} <= set(r) for r in records)
     md = (tmp_path / "evaluation.md").read_text()
     assert "Chapter 8" in md and "0.51" in md
+    assert md.rstrip().splitlines()[-1] == f"Code: {describe(provenance())}."
     assert json.loads((tmp_path / "evaluation.json").read_text()) == records
 
 

@@ -15,6 +15,7 @@ import pytest
 
 from sma_gym import fidelity
 from sma_gym.cli import main
+from sma_gym.provenance import describe, provenance
 from sma_gym.report_targets import TOLERANCES, load_targets, parse_report_targets, target, within_tolerance
 from sma_gym_agents import report_targets as table
 from sma_gym_agents.evaluation import CHAPTER_8_CASES, Record, Results
@@ -151,12 +152,16 @@ def test_cli_prints_json_rows_and_writes_the_plots(tmp_path, capsys, monkeypatch
         for r in data["rows"]
     )
     assert data["summary"]["counts"] == result.summary.counts
+    # The table names the code it measured (the model changes under the same ids).
+    assert data["provenance"] == provenance()
     for name in PLOTS:
         path = tmp_path / name
         assert path.exists() and path.stat().st_size > 10_000
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert main(["fidelity", "--quick"]) == code
-    assert capsys.readouterr().out.rstrip().endswith(result.summary.line())
+    *_, summary, code_line = capsys.readouterr().out.rstrip().splitlines()
+    assert summary == result.summary.line()
+    assert code_line == f"Code: {describe(provenance())}"
 
 
 # --------------------------------------------------------------------------------------
