@@ -27,7 +27,10 @@ Agents that scale with n (one policy for any bank of 1 to 16): parameter sharing
 features plus :data:`CONTEXT_FEATURES`, a few bank-level numbers that do not grow with n.
 :class:`BankVecEnv` makes every actuator of every bank one sub-env of a stable-baselines3
 VecEnv (its own reward, the tracking term of its actuator), so one SAC policy learns to act
-for each actuator; :class:`BankAgent` runs such a model on a bank of any size. Training:
+for each actuator; :class:`BankAgent` runs such a model on a bank of any size. With a
+residual base (:class:`BankResidual`) the model corrects the bank baseline's action for
+its actuator instead of choosing the whole duty, as the single-wire agents correct theirs
+(:mod:`sma_gym_agents.residual`). Training:
 ``python train.py --env SMAMultiplexed-v0`` (the hyperparameter file's ``vec_env_wrapper``,
 :class:`sma_gym_agents.training.envs.BankVecEnv`: every actuator of every bank one sub-env
 of a stable-baselines3 VecEnv, its reward that actuator's own tracking term).
@@ -102,6 +105,9 @@ applied in the last step, summed (fraction of the cycle: what they took of the b
 1 on a shared budget, 0 on fixed slots. None grows with n."""
 _CONTEXT_LOW = np.zeros(len(CONTEXT_FEATURES), dtype=np.float32)
 _CONTEXT_HIGH = np.array([1.0, 1.0, float(MAX_ACTUATORS), 1.0], dtype=np.float32)
+RESIDUAL_FEATURE = "base_share"
+"""The last feature of a residual bank agent's row: the share of its actuator's duty range
+(0: off, 1: the whole slot, or the whole cycle on a shared budget) the base policy grants it."""
 
 
 class BankView:
@@ -115,12 +121,14 @@ class BankView:
         self._duty = BANK_FEATURES.index("last_duty")
 
     @staticmethod
-    def observation_space() -> spaces.Box:
-        """The per-actuator observation space (the same for every n)."""
+    def observation_space(residual: bool = False) -> spaces.Box:
+        """The per-actuator observation space (the same for every n); with ``residual``, one
+        more feature last (:data:`RESIDUAL_FEATURE`)."""
         low, high = task.bounds(task.OBS_POSITION)
+        extra = 1 if residual else 0
         return spaces.Box(
-            np.concatenate([low, _CONTEXT_LOW]).astype(np.float32),
-            np.concatenate([high, _CONTEXT_HIGH]).astype(np.float32),
+            np.concatenate([low, _CONTEXT_LOW, np.zeros(extra)]).astype(np.float32),
+            np.concatenate([high, _CONTEXT_HIGH, np.ones(extra)]).astype(np.float32),
             dtype=np.float32,
         )
 
@@ -133,19 +141,70 @@ class BankView:
             )
         return width // self.k
 
-    def rows(self, observation: np.ndarray) -> np.ndarray:
-        """(batch * n, k + 4) float32 rows, actuator-major within each bank, for (batch, n * k) or (n * k,)."""
+    def rows(self, observation: np.ndarray, base_share: np.ndarray | None = None) -> np.ndarray:
+        """(batch * n, k + 4) float32 rows, actuator-major within each bank, for (batch, n * k)
+        or (n * k,); with ``base_share`` ((batch, n), :class:`BankResidual`'s) k + 5, that share last."""
         obs = np.asarray(observation, dtype=np.float32)
         n = self.n_of(obs)
         own = obs.reshape(-1, n, self.k)
         duty = own[:, :, self._duty]
-        context = np.empty(own.shape[:2] + (len(CONTEXT_FEATURES),), dtype=np.float32)
+        extra = 0 if base_share is None else 1
+        context = np.empty(own.shape[:2] + (len(CONTEXT_FEATURES) + extra,), dtype=np.float32)
         shared = self.scheme == "shared_budget"
         context[:, :, 0] = n / MAX_ACTUATORS
         context[:, :, 1] = 1.0 if shared else 1.0 / n
         context[:, :, 2] = duty.sum(axis=1, keepdims=True) - duty
         context[:, :, 3] = 1.0 if shared else 0.0
-        return np.concatenate([own, context], axis=2).reshape(-1, self.k + len(CONTEXT_FEATURES))
+        if base_share is not None:
+            context[:, :, 4] = np.asarray(base_share, dtype=np.float32).reshape(own.shape[:2])
+        return np.concatenate([own, context], axis=2).reshape(-1, self.k + context.shape[2])
+
+
+class BankResidual:
+    """A bank baseline whose action each actuator's model corrects (a residual bank agent).
+
+    The base is :func:`bank_policy` (the report's controller ``base`` per actuator on fixed
+    slots, or under the budget allocator on a shared budget). Corrections are in shares of
+    each actuator's duty range, so that one model means the same on a bank of any n::
+
+        share = clip(base_share + scale * a, 0, 1),   a in [-1, 1]
+
+    where a share of 1 is the whole slot (1/n) on fixed slots and the whole cycle on a
+    shared budget (the env then scales a bank whose shares sum past 1, as it does any
+    action). With ``a = 0`` the agent is the baseline: on a 1/16 slot, where the baseline
+    heats at the cap and a wire takes seconds to answer, training starts from there instead
+    of from half a slot (docs/training.md). Used by the training wrapper
+    (:class:`sma_gym_agents.training.envs.BankVecEnv`) and by :class:`BankAgent`, so both
+    compose actions identically.
+    """
+
+    def __init__(self, env: Any, base: ControllerSpec | str, scale: float):
+        if not 0.0 < float(scale) <= 1.0:
+            raise ValueError(f"scale = {scale}: expected a share of the actuator's duty range in (0, 1]")
+        self.policy = bank_policy(base, env)
+        self.label = self.policy.spec.label
+        self.scale = float(scale)
+        self.base_share: np.ndarray | None = None
+
+    def reset(self) -> None:
+        """Forget the base controllers' states (a new episode for every bank)."""
+        self.policy.reset()
+        self.base_share = None
+
+    def observe(self, observation: np.ndarray, episode_start: Any = None) -> np.ndarray:
+        """Run the base policy on (batch, n * k) bank observations (once per step); returns
+        and keeps each actuator's base share, shape (batch, n)."""
+        action, _ = self.policy.predict(np.asarray(observation, dtype=float), episode_start=episode_start)
+        self.base_share = (np.asarray(action, dtype=float) + 1.0) / 2.0
+        return self.base_share
+
+    def action(self, agent_action: np.ndarray) -> np.ndarray:
+        """Env actions (batch, n) for the model's corrections (batch, n), on the last observed base."""
+        if self.base_share is None:
+            raise RuntimeError("BankResidual.action before observe: the base policy has not seen the bank")
+        a = np.clip(np.asarray(agent_action, dtype=float).reshape(self.base_share.shape), -1.0, 1.0)
+        share = np.clip(self.base_share + self.scale * a, 0.0, 1.0)
+        return (2.0 * share - 1.0).astype(np.float32)
 
 
 class BankAgent:
@@ -153,20 +212,29 @@ class BankAgent:
 
     ``predict`` takes a bank's observation (n * 10,) or a batch (batch, n * 10) and returns
     the bank's action (n,) or (batch, n), every actuator's entry from the same model.
+    ``residual``: the :class:`BankResidual` the model trained on (its base and scale), or
+    None for a model that chooses the whole action.
     """
 
-    def __init__(self, model: Any, scheme: str, name: str = "bank agent"):
+    def __init__(self, model: Any, scheme: str, name: str = "bank agent", residual: BankResidual | None = None):
         self.model = model
         self.view = BankView(scheme)
         self.name = name
+        self.residual = residual
 
     def reset(self) -> None:
-        """Nothing to forget: the model is memoryless (kept for the harness's interface)."""
+        """A new episode: the model is memoryless; a residual base forgets its controllers' states."""
+        if self.residual is not None:
+            self.residual.reset()
 
     def predict(self, observation: Any, state: Any = None, episode_start: Any = None, deterministic: bool = True):
         obs = np.asarray(observation, dtype=np.float32)
         single = obs.ndim == 1
         n = self.view.n_of(obs)
-        action, _ = self.model.predict(self.view.rows(obs), deterministic=deterministic)
+        batch = obs.reshape(-1, obs.shape[-1])
+        base = None if self.residual is None else self.residual.observe(batch, episode_start)
+        action, _ = self.model.predict(self.view.rows(batch, base), deterministic=deterministic)
         action = np.asarray(action, dtype=np.float32).reshape(-1, n)
+        if self.residual is not None:
+            action = self.residual.action(action)
         return (action[0] if single else action), None

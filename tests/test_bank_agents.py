@@ -54,9 +54,13 @@ def test_train_py_config_trains_the_bank_with_its_wrapper_only():
         parse_args(["--env", "SMAMultiplexed-v0", "--env-kwargs", "n_actuators:16", "scheme:shared_budget"])
     )
     assert run.env_kwargs["n_actuators"] == 16 and run.env_kwargs["scheme"] == "shared_budget"
-    assert (run.history, run.residual, run.frame_stack) == ("none", None, 1)
+    assert (run.history, run.residual, run.residual_scale, run.frame_stack) == ("none", "VSC3 + FF", 1.0, 1)
+    plain = RunConfig.from_args(parse_args(["--env", "SMAMultiplexed-v0", "--residual", "none"]))
+    assert plain.residual is None
     with pytest.raises(ValueError, match="--history none"):
         RunConfig.from_args(parse_args(["--env", "SMAMultiplexed-v0", "--history", "ema"]))
+    with pytest.raises(ValueError, match="--residual 'VSC9'"):
+        RunConfig.from_args(parse_args(["--env", "SMAMultiplexed-v0", "--residual", "VSC9"]))
     with pytest.raises(ValueError, match="KEY:VALUE"):
         RunConfig.from_args(parse_args(["--env", "SMAMultiplexed-v0", "--env-kwargs", "n_actuators=16"]))
 
@@ -107,3 +111,56 @@ def test_bank_vec_env_calls_a_method_only_on_the_banks_the_indices_touch():
     assert venv.env_method("reset", indices=2) == ["bank 0"]
     assert inner.calls == [[1], [0]]
     assert venv.env_method("reset") == ["bank 0"] * 3 + ["bank 1"] * 3 and inner.calls[-1] == [0, 1]
+
+
+@pytest.mark.parametrize("scheme", ["fixed_slots", "shared_budget"])
+def test_a_residual_bank_agent_that_corrects_nothing_is_the_bank_baseline(scheme):
+    from sma_gym_agents.bank import BankResidual, bank_policy
+
+    kwargs = {"n_actuators": 4, "control_period_s": 0.01, "scheme": scheme}
+    venv = make_vec_env("SMAMultiplexed-v0", 2, kwargs, 1, 0, residual="VSC3 + FF", residual_scale=1.0)
+    assert venv.observation_space.shape == (15,)
+    # The same two banks, seeded as make_vec_env seeds them, under the baseline alone.
+    envs = [gym.make("sma_gym:SMAMultiplexed-v0", **kwargs) for _ in range(2)]
+    obs = np.stack([env.reset(seed=b)[0] for b, env in enumerate(envs)])
+    baseline = bank_policy("VSC3 + FF", envs[0])
+    rows = venv.reset()
+    for t in range(40):
+        np.testing.assert_array_equal(rows[:, :14], BankView(scheme).rows(obs))
+        action, _ = baseline.predict(obs, episode_start=np.full(2, t == 0))
+        # The row's last feature is the baseline's share of the actuator's duty range.
+        np.testing.assert_allclose(rows[:, 14], (action.reshape(-1) + 1) / 2, atol=1e-6)
+        obs = np.stack([env.step(a)[0] for env, a in zip(envs, action)])
+        rows, *_ = venv.step(np.zeros((8, 1), dtype=np.float32))
+    assert rows[:, 14].max() >= 0.4  # the baseline heats: shares that matter were compared
+    venv.close()
+    # The correction is a share of the duty range, clipped to it.
+    residual = BankResidual(envs[0], "VSC3 + FF", 0.5)
+    residual.base_share = np.array([[0.0, 0.25, 0.5, 1.0]])
+    np.testing.assert_allclose(residual.action(np.array([[1.0, -1.0, 0.5, 1.0]])), [[0.0, -1.0, 0.5, 1.0]])
+    with pytest.raises(ValueError, match="scale = 0"):
+        BankResidual(envs[0], "VSC3 + FF", 0.0)
+
+
+def test_a_saved_residual_bank_agent_runs_its_base_on_any_n(tmp_path):
+    from stable_baselines3 import SAC
+
+    from sma_gym_agents.bank import BankResidual, bank_policy
+
+    venv = make_vec_env(
+        "SMAMultiplexed-v0", 1, {"n_actuators": 4, "control_period_s": 0.01}, 1, 0, "none", "PID", 1.0, 20
+    )
+    model = SAC("MlpPolicy", venv, learning_starts=20, batch_size=32, policy_kwargs={"net_arch": [16]}, seed=0)
+    model.learn(40)
+    venv.close()
+    for n in (1, 16):
+        env = bank(n)
+        obs, _ = env.reset(seed=n)
+        agent = BankAgent(model, "fixed_slots", residual=BankResidual(env, "PID", 1.0))
+        agent.reset()
+        action, _ = agent.predict(obs, episode_start=np.array([True]))
+        base, _ = bank_policy("PID", env).predict(obs, episode_start=np.array([True]))
+        correction, _ = model.predict(agent.view.rows(obs, (base + 1) / 2), deterministic=True)
+        expected = np.clip((base + 1) / 2 + correction.reshape(-1), 0, 1) * 2 - 1
+        assert action.shape == (n,)
+        np.testing.assert_allclose(action, expected, atol=1e-6)

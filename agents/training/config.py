@@ -96,9 +96,14 @@ def agent_features(wrappers: Any) -> tuple[str, str | None, float]:
     parsed = [(next(iter(w)), dict(next(iter(w.values())) or {})) if isinstance(w, dict) else (w, {}) for w in items]
     names = [name for name, _ in parsed]
     if BANK_WRAPPER in names:
-        if names != [BANK_WRAPPER] or parsed[0][1]:
-            raise ValueError(f"vec_env_wrapper {names}: {BANK_WRAPPER} stands alone and takes no keyword arguments")
-        return "none", None, DEFAULT_RESIDUAL_SCALE
+        bank = parsed[0][1]
+        if names != [BANK_WRAPPER] or set(bank) - {"base", "scale"} or ("scale" in bank and "base" not in bank):
+            raise ValueError(
+                f"vec_env_wrapper {items}: {BANK_WRAPPER} stands alone, with the keyword arguments base and "
+                "scale (a residual bank agent) or none"
+            )
+        base = bank.get("base")
+        return "none", None if base is None else str(base), float(bank.get("scale", DEFAULT_RESIDUAL_SCALE))
     if names not in ([], [RESIDUAL_WRAPPER], [HISTORY_WRAPPER], [RESIDUAL_WRAPPER, HISTORY_WRAPPER]):
         # train.py rebuilds the agent's view at evaluation (sma_gym_agents.trained.AgentPolicy), which
         # knows these two features in this order only.
@@ -303,11 +308,12 @@ class RunConfig:
             raise ValueError(
                 f"--frame-stack {self.frame_stack} with history or residual: expected --frame-stack 1, or --history none --residual none"
             )
-        if self.env_id == BANK_ENV and (self.history != "none" or self.residual is not None or self.frame_stack > 1):
-            # The per-actuator view (sma_gym_agents.bank.BankView) is the bank agent's only feature.
+        if self.env_id == BANK_ENV and (self.history != "none" or self.frame_stack > 1):
+            # The per-actuator view (sma_gym_agents.bank.BankView, with the residual's base
+            # share) is the bank agent's only feature.
             raise ValueError(
-                f"--env {BANK_ENV} with history {self.history!r}, residual {self.residual!r}, frame stack "
-                f"{self.frame_stack}: expected --history none --residual none --frame-stack 1"
+                f"--env {BANK_ENV} with history {self.history!r}, frame stack {self.frame_stack}: "
+                "expected --history none --frame-stack 1"
             )
         if self.history not in HISTORIES:
             raise ValueError(f"history = {self.history!r}: expected 'none' or 'ema'")

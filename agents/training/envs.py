@@ -28,7 +28,7 @@ from sma_gym.envs import references as refs
 from sma_gym.envs.multiplexed import DEFAULT_N_ACTUATORS
 from sma_gym.envs.sb3 import SB3VecEnv
 from sma_gym.params import preset
-from sma_gym_agents.bank import BankView
+from sma_gym_agents.bank import BankResidual, BankView
 from sma_gym_agents.history import HistoryFeatures
 from sma_gym_agents.policies import env_attr
 from sma_gym_agents.residual import ResidualStep
@@ -113,14 +113,24 @@ class BankVecEnv(VecEnv):
     ``b * n + j`` is actuator j of bank b: its observation :class:`BankView`'s row, its
     action that actuator's entry of the bank's action, its reward that actuator's own
     tracking term (``actuator_rewards``). A bank's episode ends for all its actuators at once.
-    RL Zoo's ``vec_env_wrapper`` calls it as ``BankVecEnv(venv)``. ``references``: one list
-    per bank of one reference per actuator, given at every reset (fixed validation banks).
+    ``base`` (a controller label) and ``scale``: the model corrects that controller's bank
+    baseline (:class:`sma_gym_agents.bank.BankResidual`; its share is the row's last feature),
+    else it chooses the whole action. RL Zoo's ``vec_env_wrapper`` calls it as
+    ``BankVecEnv(venv, base=..., scale=...)``. ``references``: one list per bank of one
+    reference per actuator, given at every reset (fixed validation banks).
     """
 
-    def __init__(self, venv: Any, references: Sequence[Sequence[Any]] | None = None):
+    def __init__(
+        self,
+        venv: Any,
+        references: Sequence[Sequence[Any]] | None = None,
+        base: str | None = None,
+        scale: float = 0.5,
+    ):
         self.venv = venv
         self.n = int(env_attr(venv, "n"))
         self.view = BankView(str(env_attr(venv, "scheme")))
+        self.residual = None if base is None else BankResidual(venv, base, scale)
         if references is not None and (len(references) != venv.num_envs or any(len(r) != self.n for r in references)):
             raise ValueError(
                 f"references: expected {venv.num_envs} lists (one per bank) of {self.n} references (one per actuator)"
@@ -131,19 +141,29 @@ class BankVecEnv(VecEnv):
         self._lengths = np.zeros(venv.num_envs * self.n, dtype=np.int64)
         super().__init__(
             num_envs=venv.num_envs * self.n,
-            observation_space=BankView.observation_space(),
+            observation_space=BankView.observation_space(residual=self.residual is not None),
             action_space=spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32),
         )
+
+    def _rows(self, obs: np.ndarray, starts: np.ndarray) -> np.ndarray:
+        if self.residual is None:
+            return self.view.rows(obs)
+        return self.view.rows(obs, self.residual.observe(obs, starts))
 
     def reset(self) -> np.ndarray:
         if self.references is not None:
             self.venv.set_options([{"references": list(r)} for r in self.references])
         self._returns[:] = 0.0
         self._lengths[:] = 0
-        return self.view.rows(self.venv.reset())
+        if self.residual is not None:
+            self.residual.reset()
+        return self._rows(self.venv.reset(), np.ones(self.venv.num_envs, dtype=bool))
 
     def step_async(self, actions: np.ndarray) -> None:
-        self.venv.step_async(np.asarray(actions, dtype=np.float32).reshape(self.venv.num_envs, self.n))
+        actions = np.asarray(actions, dtype=np.float32).reshape(self.venv.num_envs, self.n)
+        if self.residual is not None:
+            actions = self.residual.action(actions)
+        self.venv.step_async(actions)
 
     def step_wait(self):
         obs, _, dones, infos = self.venv.step_wait()
@@ -154,7 +174,12 @@ class BankVecEnv(VecEnv):
         out: list[dict[str, Any]] = []
         for b, info in enumerate(infos):
             terminal = info.get("terminal_observation")
-            rows = self.view.rows(terminal) if terminal is not None else None
+            rows = None
+            if terminal is not None:
+                # The ended episode's last base share (the base is not stepped again: its
+                # state now belongs to the new episode).
+                last = None if self.residual is None else self.residual.base_share[b : b + 1]
+                rows = self.view.rows(terminal, last)
             for j in range(self.n):
                 i = b * self.n + j
                 entry: dict[str, Any] = {}
@@ -166,7 +191,7 @@ class BankVecEnv(VecEnv):
                 out.append(entry)
         self._returns[done] = 0.0
         self._lengths[done] = 0
-        return self.view.rows(obs), rewards.astype(np.float32), done, out
+        return self._rows(obs, np.asarray(dones, dtype=bool)), rewards.astype(np.float32), done, out
 
     def close(self) -> None:
         self.venv.close()
@@ -239,7 +264,9 @@ def make_vec_env(
         kwargs["max_episode_steps"] = max_episode_steps
     if env_id == BANK_ENV:
         # BankVecEnv reports each actuator's episodes itself: no VecMonitor below it.
-        venv = BankVecEnv(DummyVecEnv([lambda: gym.make("sma_gym:" + env_id, **kwargs)] * n_envs))
+        venv = BankVecEnv(
+            DummyVecEnv([lambda: gym.make("sma_gym:" + env_id, **kwargs)] * n_envs), base=residual, scale=residual_scale
+        )
         venv.seed(seed)
         return venv
     if gym.spec(env_id).vector_entry_point is not None:
@@ -290,7 +317,7 @@ def make_validation_env(run: RunConfig, references: list[dict[str, Any]]) -> Vec
         n = int(run.env_kwargs.get("n_actuators", DEFAULT_N_ACTUATORS))
         banks = [references[k : k + n] for k in range(0, len(references) - n + 1, n)]
         fns = [lambda: gym.make("sma_gym:" + run.env_id, **run.env_kwargs)] * len(banks)
-        venv = BankVecEnv(DummyVecEnv(fns), references=banks)
+        venv = BankVecEnv(DummyVecEnv(fns), references=banks, base=run.residual, scale=run.residual_scale)
         venv.seed(VALIDATION_SEED)
         return venv
     fns = [
