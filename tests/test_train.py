@@ -113,6 +113,39 @@ def test_train_settings_come_from_the_hyperparameter_file_and_options_override()
     assert RunConfig.from_args(parse_args(["--residual", "vsc3 + ff"])).residual == "VSC3 + FF"
 
 
+def test_hyperparams_option_overrides_the_file_as_rl_zoos_does():
+    base = RunConfig.from_args(parse_args(["--env", "SMAMultiplexed-v0"]))
+    run = RunConfig.from_args(
+        parse_args(
+            [
+                "--env",
+                "SMAMultiplexed-v0",
+                "--hyperparams",
+                "gamma:0.999",
+                "n_timesteps:5000",
+                "policy_kwargs:dict(net_arch=[64, 64])",
+                "target_entropy:-2.0",
+            ]
+        )
+    )
+    assert run.model_kwargs["gamma"] == 0.999 and base.model_kwargs["gamma"] == 0.99
+    assert run.timesteps == 5000 and run.model_kwargs["policy_kwargs"] == {"net_arch": [64, 64]}
+    assert run.model_kwargs["target_entropy"] == -2.0 and "target_entropy" not in base.model_kwargs
+    assert {k: v for k, v in run.model_kwargs.items() if k not in ("gamma", "policy_kwargs", "target_entropy")} == {
+        k: v for k, v in base.model_kwargs.items() if k not in ("gamma", "policy_kwargs")
+    }
+    with pytest.raises(ValueError, match="--hyperparams gama: expected one of"):
+        RunConfig.from_args(parse_args(["--hyperparams", "gama:0.9"]))
+    with pytest.raises(ValueError, match="--hyperparams clip_range"):  # PPO's, not SAC's
+        RunConfig.from_args(parse_args(["--hyperparams", "clip_range:0.1"]))
+    with pytest.raises(ValueError, match="--hyperparams seed: set it with --seed"):
+        RunConfig.from_args(parse_args(["--hyperparams", "seed:3"]))
+    with pytest.raises(ValueError, match="--env-kwargs"):
+        RunConfig.from_args(parse_args(["--hyperparams", "env_kwargs:{}"]))
+    with pytest.raises(ValueError, match="KEY:VALUE"):
+        RunConfig.from_args(parse_args(["--hyperparams", "gamma=0.9"]))
+
+
 def test_one_card_type_writes_and_reads_one_suffix(tmp_path):
     """The card saved in training is the card load_policy reads: same type, same file."""
     zip_path = tmp_path / "best_model.zip"

@@ -125,18 +125,57 @@ def agent_features(wrappers: Any) -> tuple[str, str | None, float]:
     )
 
 
-def env_kwargs_option(items: list[str] | None) -> dict[str, Any]:
-    """``--env-kwargs key:value ...`` as a dict (values as Python literals where they parse,
-    else strings); ``ValueError`` naming an item without a key."""
+def key_value_option(
+    items: list[str] | None, option: str = "--env-kwargs", example: str = "n_actuators:16"
+) -> dict[str, Any]:
+    """``option key:value ...`` as a dict (values as Python literals where they parse, else
+    strings); ``ValueError`` naming an item without a key."""
     out: dict[str, Any] = {}
     for item in items or []:
         key, sep, text = item.partition(":")
         if not sep or not key.isidentifier():
-            raise ValueError(f"--env-kwargs {item!r}: expected KEY:VALUE, e.g. n_actuators:16")
+            raise ValueError(f"{option} {item!r}: expected KEY:VALUE, e.g. {example}")
         try:
             out[key] = ast.literal_eval(text)
         except (SyntaxError, ValueError):
             out[key] = text
+    return out
+
+
+def env_kwargs_option(items: list[str] | None) -> dict[str, Any]:
+    """``--env-kwargs key:value ...`` as a dict (:func:`key_value_option`)."""
+    return key_value_option(items)
+
+
+_OWN_OPTIONS = {
+    "vec_env_wrapper": "--history and --residual",
+    "env_kwargs": "--env-kwargs",
+    "seed": "--seed",
+    "device": "--device",
+    "env": "--env",
+}
+"""Entries of the file that ``--hyperparams`` leaves to another option."""
+
+
+def hyperparams_option(items: list[str] | None, algo: str) -> dict[str, Any]:
+    """``--hyperparams key:value ...`` (RL Zoo's option): entries of the file's table to replace
+    or add; ``ValueError`` naming a key that is neither a run key nor a keyword of the algorithm."""
+    out = key_value_option(items, "--hyperparams", "learning_rate:1e-3 gamma:0.999")
+    if not out:
+        return out
+    import inspect
+
+    import stable_baselines3  # only when asked: the rest of the configuration needs no torch
+
+    accepted = set(inspect.signature(getattr(stable_baselines3, algo.upper()).__init__).parameters) - {"self"}
+    for key in out:
+        if key in _OWN_OPTIONS:
+            raise ValueError(f"--hyperparams {key}: set it with {_OWN_OPTIONS[key]}")
+        if key not in accepted and key not in _RUN_KEYS:
+            raise ValueError(
+                f"--hyperparams {key}: expected one of {sorted(set(_RUN_KEYS) - set(_OWN_OPTIONS))} or a keyword "
+                f"of stable-baselines3's {algo.upper()}"
+            )
     return out
 
 
@@ -166,6 +205,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="KEY:VALUE",
         help="make kwargs over the file's env_kwargs, as RL Zoo's --env-kwargs (a value is read as a Python "
         "literal, else as a string), e.g. n_actuators:16 scheme:shared_budget",
+    )
+    p.add_argument(
+        "--hyperparams",
+        nargs="+",
+        metavar="KEY:VALUE",
+        help="entries over the file's, as RL Zoo's --hyperparams (values read as --env-kwargs's), e.g. "
+        "gamma:0.999 learning_rate:1e-3; recorded in run.json",
     )
     p.add_argument("--n-envs", type=int, help="parallel envs in the native vector env (default: from the file)")
     p.add_argument(
@@ -251,7 +297,7 @@ class RunConfig:
         if args.env in NOT_FOR_TRAIN_PY:
             raise ValueError(f"--env {args.env}: {NOT_FOR_TRAIN_PY[args.env]}")
         algo = args.algo or DEFAULT_ALGO
-        table = load_hyperparams(args.env, algo)
+        table = {**load_hyperparams(args.env, algo), **hyperparams_option(args.hyperparams, algo)}
         refused = sorted(set(table) & set(_ZOO_ONLY_KEYS))
         if refused:
             raise ValueError(
