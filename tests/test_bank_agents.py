@@ -47,6 +47,16 @@ def test_bank_vec_env_gives_each_actuator_its_own_reward_and_ends_the_bank_toget
     assert dones.all() and all("terminal_observation" in i and "episode" in i for i in infos)
     assert infos[0]["terminal_observation"].shape == (14,)
     venv.close()
+    # A residual bank agent's rows (terminal ones too) carry the base share last.
+    venv = make_vec_env(
+        "SMAMultiplexed-v0", 2, {"n_actuators": 3, "control_period_s": 0.01}, 1, 0, "none", "PID", 1.0, 5
+    )
+    assert venv.reset().shape == (6, 15)
+    for _ in range(5):
+        obs, rewards, dones, infos = venv.step(np.full((6, 1), 0.5, dtype=np.float32))
+    assert dones.all() and obs.shape == (6, 15) and infos[4]["terminal_observation"].shape == (15,)
+    assert 0.0 <= infos[4]["terminal_observation"][-1] <= 1.0
+    venv.close()
 
 
 def test_train_py_config_trains_the_bank_with_its_wrapper_only():
