@@ -22,15 +22,17 @@ RESULT_SOURCES = ("sma_gym", "agents", "train.py", "hyperparams")
 """What decides a result: uncommitted changes there make the commit alone not enough."""
 
 
-def _git(*args: str) -> str | None:
-    """``git -C SOURCE_ROOT <args>``'s output, or None if git is missing or fails."""
+def _run_git(root: Path, *args: str) -> subprocess.CompletedProcess | None:
     try:
-        done = subprocess.run(
-            ["git", "-C", str(SOURCE_ROOT), *args], capture_output=True, text=True, timeout=20, check=False
-        )
+        return subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True, timeout=20, check=False)
     except (OSError, subprocess.SubprocessError):
         return None
-    return done.stdout.strip() if done.returncode == 0 else None
+
+
+def _git(*args: str) -> str | None:
+    """``git -C SOURCE_ROOT <args>``'s output, or None if git is missing or fails."""
+    done = _run_git(SOURCE_ROOT, *args)
+    return done.stdout.strip() if done is not None and done.returncode == 0 else None
 
 
 @functools.cache
@@ -54,6 +56,16 @@ def provenance() -> dict[str, Any]:
     decide results (:data:`RESULT_SOURCES`) had uncommitted changes (None if unknown).
     Computed once per process."""
     return dict(_provenance())
+
+
+def results_differ(first: str, second: str, root: Path = SOURCE_ROOT) -> bool | None:
+    """Whether two commits differ in the files that decide results (:data:`RESULT_SOURCES`):
+    False when only other files (docs, tests, benchmarks) changed between them, None when
+    git cannot tell (git missing, ``root`` not a checkout, a commit it does not have)."""
+    done = _run_git(root, "diff", "--quiet", first, second, "--", *RESULT_SOURCES)
+    if done is None or done.returncode not in (0, 1):
+        return None
+    return done.returncode == 1
 
 
 def describe(record: dict[str, Any] | None) -> str:

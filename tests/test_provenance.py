@@ -54,3 +54,41 @@ def test_describe():
     )
     assert "commit unknown" in prov.describe({"sma_gym_version": "0.1.0", "commit": None, "modified": None})
     assert prov.describe(None) == "sma-gym version not recorded"
+
+
+def test_commits_that_changed_only_docs_decide_the_same_results(tmp_path, monkeypatch):
+    import subprocess
+
+    from sma_gym.provenance import results_differ
+    from sma_gym_agents.training.sweep import provenance_line
+
+    def git(*args):
+        return subprocess.run(["git", "-C", str(tmp_path), *args], capture_output=True, text=True, check=True).stdout
+
+    git("init", "-q")
+    git("config", "user.email", "t@example.org")
+    git("config", "user.name", "t")
+    commits = []
+    for path, text in (("sma_gym/kernel.py", "a = 1\n"), ("docs/x.md", "docs\n"), ("sma_gym/kernel.py", "a = 2\n")):
+        (tmp_path / path).parent.mkdir(exist_ok=True)
+        (tmp_path / path).write_text(text)
+        git("add", "-A")
+        git("commit", "-qm", path)
+        commits.append(git("rev-parse", "HEAD").strip())
+    assert results_differ(commits[0], commits[1], tmp_path) is False
+    assert results_differ(commits[1], commits[2], tmp_path) is True
+    assert results_differ(commits[0], "f" * 40, tmp_path) is None  # a commit git does not have
+    # seeds.md's line: an unknown pair of commits keeps the warning.
+    record = {"sma_gym_version": "0.1.0", "modified": False}
+    line = provenance_line({0: {**record, "commit": "a" * 40}, 1: {**record, "commit": "b" * 40}})
+    assert "did not all run the same code" in line
+    # Commits git finds equal where results are decided: the same code, said so.
+    import sma_gym.provenance
+
+    monkeypatch.setattr(sma_gym.provenance, "results_differ", lambda a, b: a[0] == "c" or b[0] == "c")
+    line = provenance_line({0: {**record, "commit": "a" * 40}, 1: {**record, "commit": "b" * 40}})
+    assert "differ only outside the files that decide results" in line and "aaaaaaaaaaaa" in line
+    line = provenance_line({0: {**record, "commit": "a" * 40}, 1: {**record, "commit": "c" * 40}})
+    assert "did not all run the same code" in line
+    modified = provenance_line({0: {**record, "commit": "a" * 40}, 1: {**record, "commit": "b" * 40, "modified": True}})
+    assert "did not all run the same code" in modified

@@ -241,7 +241,7 @@ def provenance_line(sources: dict[int, dict[str, Any] | None]) -> str:
     """``seeds.md``'s line on the code the seeds ran: one line if they all ran the same,
     otherwise each group of seeds with its code and a warning (kept seeds of ``--resume``
     may come from an older commit, whose model may differ)."""
-    from sma_gym.provenance import describe
+    from sma_gym.provenance import RESULT_SOURCES, describe, results_differ
 
     groups: dict[str, list[int]] = {}
     for seed, record in sorted(sources.items()):
@@ -249,6 +249,15 @@ def provenance_line(sources: dict[int, dict[str, Any] | None]) -> str:
     if len(groups) == 1:
         return f"Code: {next(iter(groups))} (every seed)."
     parts = "; ".join(f"seeds {', '.join(map(str, seeds))}: {text}" for text, seeds in groups.items())
+    records = list(sources.values())
+    commits = [r.get("commit") if r else None for r in records]
+    if all(commits) and not any(r.get("modified") for r in records):
+        # Commits that changed only docs, tests or benchmarks ran the same code.
+        if all(results_differ(commits[0], c) is False for c in commits[1:]):
+            return (
+                f"Code: the seeds ran different commits ({parts}) that differ only outside the files that decide "
+                f"results ({', '.join(RESULT_SOURCES)}): the same code."
+            )
     return f"Code: **the seeds did not all run the same code** ({parts}); compare them only if the model is the same."
 
 
