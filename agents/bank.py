@@ -105,9 +105,6 @@ applied in the last step, summed (fraction of the cycle: what they took of the b
 1 on a shared budget, 0 on fixed slots. None grows with n."""
 _CONTEXT_LOW = np.zeros(len(CONTEXT_FEATURES), dtype=np.float32)
 _CONTEXT_HIGH = np.array([1.0, 1.0, float(MAX_ACTUATORS), 1.0], dtype=np.float32)
-RESIDUAL_FEATURE = "base_share"
-"""The last feature of a residual bank agent's row: the share of its actuator's duty range
-(0: off, 1: the whole slot, or the whole cycle on a shared budget) the base policy grants it."""
 
 
 class BankView:
@@ -123,7 +120,8 @@ class BankView:
     @staticmethod
     def observation_space(residual: bool = False) -> spaces.Box:
         """The per-actuator observation space (the same for every n); with ``residual``, one
-        more feature last (:data:`RESIDUAL_FEATURE`)."""
+        more feature last: the share of the actuator's duty range the base grants it (0: off,
+        1: the whole slot, or the whole cycle on a shared budget; :class:`BankResidual`)."""
         low, high = task.bounds(task.OBS_POSITION)
         extra = 1 if residual else 0
         return spaces.Box(
@@ -182,7 +180,6 @@ class BankResidual:
         if not 0.0 < float(scale) <= 1.0:
             raise ValueError(f"scale = {scale}: expected a share of the actuator's duty range in (0, 1]")
         self.policy = bank_policy(base, env)
-        self.label = self.policy.spec.label
         self.scale = float(scale)
         self.base_share: np.ndarray | None = None
 
