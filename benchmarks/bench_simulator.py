@@ -64,7 +64,12 @@ def export_package(rev: str, into: Path) -> Path:
             f"--against {rev!r}: git archive failed ({proc.stderr.decode().strip()}); expected a commit of {ROOT}"
         )
     with tarfile.open(fileobj=BytesIO(proc.stdout)) as tar:
-        tar.extractall(into, filter="data")
+        # The extraction filter exists from Python 3.12 (and late 3.10/3.11 patch releases);
+        # the archive is our own repository's, so older Pythons extract without it.
+        if hasattr(tarfile, "data_filter"):
+            tar.extractall(into, filter="data")
+        else:
+            tar.extractall(into)
     return into
 
 
@@ -107,5 +112,5 @@ if __name__ == "__main__":
             parser.error(str(err))
     else:
         main(as_json=False, repeats=args.repeats)
-        print("nominal hysteresis law against the 0.1 play law (alternating, best of 5):")
+        print(f"nominal hysteresis law against the 0.1 play law (alternating, best of {args.repeats}):")
         law_cost(args.repeats)
