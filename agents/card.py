@@ -16,7 +16,9 @@ The JSON document (version 1)::
      "timesteps": 400000, "train_time_s": 780.1, "validation_return": -12.3,
      "model_sha256": "..."}
 
-``timesteps``, ``train_time_s`` and ``validation_return`` are written only when known.
+``timesteps``, ``train_time_s`` and ``validation_return`` are written only when known;
+``residual_allocation`` (a bank agent's base on a shared budget, :data:`ALLOCATIONS`) only
+when it is not ``"proportional"``, so cards written before it existed read as they were.
 """
 
 from __future__ import annotations
@@ -42,6 +44,11 @@ of any other id would be silently left out of every table)."""
 
 HISTORIES = ("none", "ema")
 """History features an agent may see (:mod:`sma_gym_agents.history`)."""
+
+ALLOCATIONS = ("proportional", "priority")
+"""How a bank baseline on a shared budget grants a cycle its actuators overrun: every ask
+scaled by one factor (:class:`sma_gym_agents.bank.BudgetAllocator`, the default) or one
+actuator after another (:class:`sma_gym_agents.bank.PriorityAllocator`)."""
 
 
 def card_path(model_path: str | Path) -> Path:
@@ -76,6 +83,11 @@ def _problems(values: Mapping[str, Any]) -> list[tuple[str, str]]:
             _is_number(values.get("residual_scale", 0.5)) and 0.0 < values.get("residual_scale", 0.5) <= 1.0,
             "a number in (0, 1]",
         ),
+        (
+            "residual_allocation",
+            values.get("residual_allocation", "proportional") in ALLOCATIONS,
+            f"one of {', '.join(ALLOCATIONS)}",
+        ),
         ("name", isinstance(values.get("name", ""), str), "a string"),
     )
     return [(name, expected) for name, ok, expected in checks if not ok]
@@ -101,6 +113,8 @@ class PolicyCard:
     """Controller label the model corrects (:mod:`sma_gym_agents.residual`), or None."""
     residual_scale: float = 0.5
     """Largest correction of the residual, as a fraction of full duty."""
+    residual_allocation: str = "proportional"
+    """A bank agent's base on a shared budget: how it grants an overrun cycle (:data:`ALLOCATIONS`)."""
     seed: int | None = None
     timesteps: int | None = None
     """Environment steps the model had trained for when saved."""
@@ -150,6 +164,8 @@ class PolicyCard:
             "residual_scale": self.residual_scale,
             "seed": self.seed,
         }
+        if self.residual_allocation != "proportional":
+            out["residual_allocation"] = self.residual_allocation
         for key in ("timesteps", "train_time_s", "validation_return", "model_sha256"):
             if getattr(self, key) is not None:
                 out[key] = getattr(self, key)

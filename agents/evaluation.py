@@ -112,6 +112,10 @@ CHAPTER_9_COUNTS = ((1, 10.0), (8, 10.0), (16, 10.0), (16, 15.0), (16, 20.0), (1
 CHAPTER_9_FREQUENCIES = (100.0, 500.0, 1000.0, 2000.0, 3000.0, 4000.0)
 BANK_BASELINE_SPECS = (PID, with_feedforward(VSC3), VSC4, with_feedforward(VSC4))
 """The report's controllers a bank agent is compared with, per actuator (the best one counts)."""
+BANK_PRIORITY_SPEC = with_feedforward(VSC3)
+"""The controller of the priority allocator a shared-budget bank agent is also compared with
+(on 16 independent references the four controllers under it differ by under 0.01 mm: the
+allocation, not the controller, sets the error)."""
 BANK_STEP_N = 16
 BANK_STEP_VOLTAGE_V = 10.0
 BANK_STEP_LEVEL_M = 8e-3
@@ -156,14 +160,18 @@ def baseline(spec: ControllerSpec | str, self_sensing: bool = False) -> PolicyEn
     )
 
 
-def bank_entry(spec: ControllerSpec | str, scheme: str) -> PolicyEntry:
+def bank_entry(spec: ControllerSpec | str, scheme: str, allocation: str = "proportional") -> PolicyEntry:
     """The report's controller per actuator on a multiplexed bank: on fixed slots (Table 9.1's
-    scheme) or under the budget allocator on a shared budget (:func:`sma_gym_agents.bank.bank_policy`)."""
+    scheme) or on a shared budget under the budget allocator (``allocation="proportional"``)
+    or the priority allocator (``"priority"``) (:func:`sma_gym_agents.bank.bank_policy`)."""
     s = spec_by_label(spec) if isinstance(spec, str) else spec
-    suffix = "budget allocator" if scheme == "shared_budget" else "fixed slots"
+    if scheme != "shared_budget":
+        suffix = "fixed slots"
+    else:
+        suffix = "priority allocator" if allocation == "priority" else "budget allocator"
     return PolicyEntry(
         f"{s.label} ({suffix})",
-        lambda env, s=s: bank_policy(s, env),
+        lambda env, s=s: bank_policy(s, env, allocation),
         env_id="SMAMultiplexed-v0",
         env_kwargs={"control_period_s": BASELINE_PERIOD_S, "scheme": scheme},
     )
@@ -799,6 +807,17 @@ def bank_tracking(
     return {"rms_error_m": math.sqrt(squared / steps), "energy_j": energy}
 
 
+def bank_baselines(scheme: str, quick: bool = False) -> list[PolicyEntry]:
+    """The bank baselines an agent of ``scheme`` is compared with: the report's controllers
+    per actuator (:data:`BANK_BASELINE_SPECS`; two of them when ``quick``) and, on a shared
+    budget, the priority allocator (:data:`BANK_PRIORITY_SPEC`)."""
+    specs = BANK_BASELINE_SPECS[:2] if quick else BANK_BASELINE_SPECS
+    entries = [bank_entry(s, scheme) for s in specs]
+    if scheme == "shared_budget":
+        entries.append(bank_entry(BANK_PRIORITY_SPEC, scheme, "priority"))
+    return entries
+
+
 def bank_tracking_label(n: int, scheme: str) -> str:
     return f"{n} actuators, {scheme.replace('_', ' ')}"
 
@@ -830,7 +849,9 @@ def bank_agent_entry(agent: AgentPolicy) -> PolicyEntry:
     scheme = str(agent.env_kwargs.get("scheme", "fixed_slots"))
 
     def make(env: Any, a: AgentPolicy = agent, s: str = scheme) -> BankAgent:
-        residual = None if a.residual is None else BankResidual(env, a.residual, a.residual_scale)
+        residual = (
+            None if a.residual is None else BankResidual(env, a.residual, a.residual_scale, a.residual_allocation)
+        )
         return BankAgent(a.model, s, a.name, residual)
 
     return PolicyEntry(
@@ -886,7 +907,7 @@ def evaluate(
             # Each bank agent beside the bank baselines of its own scheme, at the n it trained with.
             scheme = agent.env_kwargs.get("scheme", "fixed_slots")
             n = int(next(a for a in agents if a.name == agent.name).env_kwargs.get("n_actuators", 4))
-            pool = [bank_entry(s, scheme) for s in BANK_BASELINE_SPECS]
+            pool = bank_baselines(scheme)
             run_bank_tracking(pool + [agent], results, n, scheme, seeds)
     if "self-sensing" in experiments:
         # The report's self-sensing setup (§4.2): a fan; compared with the same controllers

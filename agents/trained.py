@@ -43,6 +43,8 @@ class AgentPolicy:
     """A controller label (e.g. ``"VSC3 + FF"``): the model is a residual on top of it
     (:mod:`sma_gym_agents.residual`); the policy runs that controller, as training did."""
     residual_scale: float = 0.5
+    residual_allocation: str = "proportional"
+    """A bank agent's base on a shared budget (:data:`sma_gym_agents.card.ALLOCATIONS`)."""
 
     def __post_init__(self) -> None:
         self._features: HistoryFeatures | None = None
@@ -98,6 +100,7 @@ class AgentPolicy:
             history=card.history,
             residual=card.residual,
             residual_scale=card.residual_scale,
+            residual_allocation=card.residual_allocation,
         )
 
 

@@ -19,6 +19,7 @@ import yaml
 import sma_gym  # noqa: F401  (registers the ids, as the zoo's --gym-packages sma_gym does)
 from sma_gym_agents.training.config import (
     ALGOS,
+    BANK_WRAPPER,
     HISTORY_WRAPPER,
     NOT_FOR_TRAIN_PY,
     RESIDUAL_WRAPPER,
@@ -140,9 +141,17 @@ def test_train_py_reads_the_agent_it_had_from_the_toml_files():
 
 
 def test_agent_features_accept_our_wrappers_in_order_only():
-    assert agent_features(None) == ("none", None, 0.5)
-    assert agent_features([HISTORY_WRAPPER]) == ("ema", None, 0.5)
-    assert agent_features([{RESIDUAL_WRAPPER: {"base": "PID", "scale": 0.3}}, HISTORY_WRAPPER]) == ("ema", "PID", 0.3)
+    assert agent_features(None) == ("none", None, 0.5, "proportional")
+    assert agent_features([HISTORY_WRAPPER]) == ("ema", None, 0.5, "proportional")
+    both = [{RESIDUAL_WRAPPER: {"base": "PID", "scale": 0.3}}, HISTORY_WRAPPER]
+    assert agent_features(both) == ("ema", "PID", 0.3, "proportional")
+    bank = {"base": "PID", "scale": 1.0, "allocation": "priority"}
+    assert agent_features([{BANK_WRAPPER: bank}]) == ("none", "PID", 1.0, "priority")
+    assert agent_features([BANK_WRAPPER]) == ("none", None, 0.5, "proportional")
+    with pytest.raises(ValueError, match="allocation = 'greedy'"):
+        agent_features([{BANK_WRAPPER: {**bank, "allocation": "greedy"}}])
+    with pytest.raises(ValueError, match="base, scale and allocation"):
+        agent_features([{BANK_WRAPPER: {"allocation": "priority"}}])
     with pytest.raises(ValueError, match="knows"):
         agent_features([HISTORY_WRAPPER, {RESIDUAL_WRAPPER: {"base": "PID"}}])
     with pytest.raises(ValueError, match="knows"):

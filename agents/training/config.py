@@ -18,7 +18,7 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from sma_gym_agents.card import CARD_SUFFIX, HISTORIES, PolicyCard
+from sma_gym_agents.card import ALLOCATIONS, CARD_SUFFIX, HISTORIES, PolicyCard
 from sma_gym_agents.controllers import ALL_SPECS, spec_by_label
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -89,21 +89,31 @@ def literal_kwargs(text: str | dict[str, Any], key: str) -> dict[str, Any]:
     raise ValueError(f"{key} = {text!r}: train.py reads dict(name=literal, ...) or a mapping of literals")
 
 
-def agent_features(wrappers: Any) -> tuple[str, str | None, float]:
-    """``(history, residual, residual_scale)`` from a zoo ``vec_env_wrapper`` value: our
-    residual wrapper (optional) then our history wrapper (optional), nothing else."""
+def agent_features(wrappers: Any) -> tuple[str, str | None, float, str]:
+    """``(history, residual, residual_scale, residual_allocation)`` from a zoo
+    ``vec_env_wrapper`` value: our residual wrapper (optional) then our history wrapper
+    (optional), nothing else; or the bank's wrapper alone (its ``allocation``: how a residual
+    bank agent's base grants an overrun shared budget, :data:`sma_gym_agents.card.ALLOCATIONS`)."""
     items = [] if wrappers is None else wrappers if isinstance(wrappers, list) else [wrappers]
     parsed = [(next(iter(w)), dict(next(iter(w.values())) or {})) if isinstance(w, dict) else (w, {}) for w in items]
     names = [name for name, _ in parsed]
     if BANK_WRAPPER in names:
         bank = parsed[0][1]
-        if names != [BANK_WRAPPER] or set(bank) - {"base", "scale"} or ("scale" in bank and "base" not in bank):
+        if (
+            names != [BANK_WRAPPER]
+            or set(bank) - {"base", "scale", "allocation"}
+            or (set(bank) & {"scale", "allocation"} and "base" not in bank)
+        ):
             raise ValueError(
-                f"vec_env_wrapper {items}: {BANK_WRAPPER} stands alone, with the keyword arguments base and "
-                "scale (a residual bank agent) or none"
+                f"vec_env_wrapper {items}: {BANK_WRAPPER} stands alone, with the keyword arguments base, "
+                "scale and allocation (a residual bank agent) or none"
             )
+        allocation = str(bank.get("allocation", "proportional"))
+        if allocation not in ALLOCATIONS:
+            raise ValueError(f"{BANK_WRAPPER} allocation = {allocation!r}: expected one of {ALLOCATIONS}")
         base = bank.get("base")
-        return "none", None if base is None else str(base), float(bank.get("scale", DEFAULT_RESIDUAL_SCALE))
+        scale = float(bank.get("scale", DEFAULT_RESIDUAL_SCALE))
+        return "none", None if base is None else str(base), scale, allocation
     if names not in ([], [RESIDUAL_WRAPPER], [HISTORY_WRAPPER], [RESIDUAL_WRAPPER, HISTORY_WRAPPER]):
         # train.py rebuilds the agent's view at evaluation (sma_gym_agents.trained.AgentPolicy), which
         # knows these two features in this order only.
@@ -122,6 +132,7 @@ def agent_features(wrappers: Any) -> tuple[str, str | None, float]:
         "ema" if HISTORY_WRAPPER in kwargs else "none",
         None if residual is None else str(residual["base"]),
         DEFAULT_RESIDUAL_SCALE if residual is None else float(residual.get("scale", DEFAULT_RESIDUAL_SCALE)),
+        "proportional",
     )
 
 
@@ -290,6 +301,8 @@ class RunConfig:
     quick: bool
     model_kwargs: dict[str, Any] = field(default_factory=dict)
     """Keyword arguments of the stable-baselines3 algorithm (``policy`` included if set)."""
+    residual_allocation: str = "proportional"
+    """How a residual bank agent's base grants an overrun shared budget (:data:`ALLOCATIONS`)."""
 
     @classmethod
     def from_args(cls, args: argparse.Namespace) -> RunConfig:
@@ -306,7 +319,7 @@ class RunConfig:
         model_kwargs = {k: v for k, v in table.items() if k not in _RUN_KEYS}
         if "policy_kwargs" in model_kwargs:
             model_kwargs["policy_kwargs"] = literal_kwargs(model_kwargs["policy_kwargs"], "policy_kwargs")
-        history, file_residual, residual_scale = agent_features(table.get("vec_env_wrapper"))
+        history, file_residual, residual_scale, allocation = agent_features(table.get("vec_env_wrapper"))
         if (args.env == BANK_ENV) != (BANK_WRAPPER in str(table.get("vec_env_wrapper"))):
             raise ValueError(
                 f"{hyperparams_path(algo).name} [{args.env}]: {BANK_ENV} trains through vec_env_wrapper "
@@ -336,6 +349,7 @@ class RunConfig:
             threads=args.threads,
             quick=args.quick,
             model_kwargs=model_kwargs,
+            residual_allocation=allocation,
         )
         return run.checked()
 
@@ -373,6 +387,8 @@ class RunConfig:
                 ) from err
         if not 0.0 < self.residual_scale <= 1.0:
             raise ValueError(f"residual_scale = {self.residual_scale}: expected a fraction of full duty in (0, 1]")
+        if self.residual_allocation not in ALLOCATIONS:
+            raise ValueError(f"residual_allocation = {self.residual_allocation!r}: expected one of {ALLOCATIONS}")
         return self if residual == self.residual else replace(self, residual=residual)
 
     def as_dict(self) -> dict[str, Any]:
@@ -390,6 +406,7 @@ class RunConfig:
             history=self.history,
             residual=self.residual,
             residual_scale=self.residual_scale,
+            residual_allocation=self.residual_allocation,
             seed=self.seed,
             **progress,
         )

@@ -115,9 +115,11 @@ class BankVecEnv(VecEnv):
     tracking term (``actuator_rewards``). A bank's episode ends for all its actuators at once.
     ``base`` (a controller label) and ``scale``: the model corrects that controller's bank
     baseline (:class:`sma_gym_agents.bank.BankResidual`; its share is the row's last feature),
-    else it chooses the whole action. RL Zoo's ``vec_env_wrapper`` calls it as
-    ``BankVecEnv(venv, base=..., scale=...)``. ``references``: one list per bank of one
-    reference per actuator, given at every reset (fixed validation banks).
+    else it chooses the whole action; ``allocation``: how that baseline grants an overrun
+    shared budget (``"proportional"`` or ``"priority"``, :func:`sma_gym_agents.bank.bank_policy`).
+    RL Zoo's ``vec_env_wrapper`` calls it as ``BankVecEnv(venv, base=..., scale=...,
+    allocation=...)``. ``references``: one list per bank of one reference per actuator,
+    given at every reset (fixed validation banks).
     """
 
     def __init__(
@@ -126,11 +128,12 @@ class BankVecEnv(VecEnv):
         references: Sequence[Sequence[Any]] | None = None,
         base: str | None = None,
         scale: float = 0.5,
+        allocation: str = "proportional",
     ):
         self.venv = venv
         self.n = int(env_attr(venv, "n"))
         self.view = BankView(str(env_attr(venv, "scheme")))
-        self.residual = None if base is None else BankResidual(venv, base, scale)
+        self.residual = None if base is None else BankResidual(venv, base, scale, allocation)
         if references is not None and (len(references) != venv.num_envs or any(len(r) != self.n for r in references)):
             raise ValueError(
                 f"references: expected {venv.num_envs} lists (one per bank) of {self.n} references (one per actuator)"
@@ -256,6 +259,7 @@ def make_vec_env(
     residual: str | None = None,
     residual_scale: float = 0.5,
     max_episode_steps: int | None = None,
+    allocation: str = "proportional",
 ) -> VecEnv:
     """SB3 VecEnv: the native vector env where the id has one, with a monitor and the agent view
     (the multiplexed bank: ``n_envs`` banks, each actuator a sub-env, :class:`BankVecEnv`)."""
@@ -265,7 +269,10 @@ def make_vec_env(
     if env_id == BANK_ENV:
         # BankVecEnv reports each actuator's episodes itself: no VecMonitor below it.
         venv = BankVecEnv(
-            DummyVecEnv([lambda: gym.make("sma_gym:" + env_id, **kwargs)] * n_envs), base=residual, scale=residual_scale
+            DummyVecEnv([lambda: gym.make("sma_gym:" + env_id, **kwargs)] * n_envs),
+            base=residual,
+            scale=residual_scale,
+            allocation=allocation,
         )
         venv.seed(seed)
         return venv
@@ -284,7 +291,15 @@ def make_vec_env(
 def make_training_env(run: RunConfig) -> VecEnv:
     """The run's training envs (:func:`make_vec_env` with its settings)."""
     return make_vec_env(
-        run.env_id, run.n_envs, run.env_kwargs, run.frame_stack, run.seed, run.history, run.residual, run.residual_scale
+        run.env_id,
+        run.n_envs,
+        run.env_kwargs,
+        run.frame_stack,
+        run.seed,
+        run.history,
+        run.residual,
+        run.residual_scale,
+        allocation=run.residual_allocation,
     )
 
 
@@ -317,7 +332,13 @@ def make_validation_env(run: RunConfig, references: list[dict[str, Any]]) -> Vec
         n = int(run.env_kwargs.get("n_actuators", DEFAULT_N_ACTUATORS))
         banks = [references[k : k + n] for k in range(0, len(references) - n + 1, n)]
         fns = [lambda: gym.make("sma_gym:" + run.env_id, **run.env_kwargs)] * len(banks)
-        venv = BankVecEnv(DummyVecEnv(fns), references=banks, base=run.residual, scale=run.residual_scale)
+        venv = BankVecEnv(
+            DummyVecEnv(fns),
+            references=banks,
+            base=run.residual,
+            scale=run.residual_scale,
+            allocation=run.residual_allocation,
+        )
         venv.seed(VALIDATION_SEED)
         return venv
     fns = [
