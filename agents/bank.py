@@ -98,11 +98,17 @@ class PriorityAllocator(BudgetAllocator):
     (the last one served gets what is left, the rest nothing), in this order:
 
     1. the *lead*: the actuator served first in the previous step, as long as its controller
-       still asks the whole cycle (it has not yet come near its reference);
+       still asks the whole cycle (it has not yet come near its reference) and for at most
+       ``lead_limit_s`` in a row;
     2. the others by measured tracking error r - x, largest first.
 
     When the lead asks less than the whole cycle (or at an episode start), the actuator with
-    the largest error among those asking becomes the lead.
+    the largest error among those asking becomes the lead. A lead that reaches the limit is
+    passed over in that choice, so that one wire that cannot reach its reference (beyond
+    the stroke, or broken) takes at most ``lead_limit_s`` at a time from the others instead
+    of the whole cycle forever. A wire at 10 V reaches any position within the stroke from
+    rest in well under a second at full duty, so the default limit of 1 s does not cut a
+    reachable rise short.
 
     Why: a wire moves only once it has reached its transformation temperature, and every
     watt it gets before that is partly lost to the air. Proportional scaling splits an
@@ -114,10 +120,20 @@ class PriorityAllocator(BudgetAllocator):
     while the lead takes the cycle, an actuator further down the order cools.
     """
 
-    def __init__(self, spec: ControllerSpec | str, env: Any, filter_cutoff_hz: float | None = None):
+    def __init__(
+        self,
+        spec: ControllerSpec | str,
+        env: Any,
+        filter_cutoff_hz: float | None = None,
+        lead_limit_s: float = 1.0,
+    ):
         super().__init__(spec, env, filter_cutoff_hz)
+        if not (isinstance(lead_limit_s, (int, float)) and lead_limit_s >= self.dt):
+            raise ValueError(f"lead_limit_s = {lead_limit_s!r}: expected seconds >= the control period {self.dt}")
         self.name = f"{self.spec.label} (priority allocator)"
+        self.lead_limit_steps = max(1, int(round(float(lead_limit_s) / self.dt)))
         self._lead: np.ndarray | None = None
+        self._held = np.zeros(0, dtype=int)
 
     def reset(self) -> None:
         super().reset()
@@ -135,16 +151,23 @@ class PriorityAllocator(BudgetAllocator):
         error_m = (features[..., self._index["reference"]] - features[..., self._index["position"]]) * scale
         error_m = np.broadcast_to(error_m, (n_batch, n))
         if self._lead is None or self._lead.shape != (n_batch,):
-            self._lead = np.full(n_batch, -1)
+            self._lead, self._held = np.full(n_batch, -1), np.zeros(n_batch, dtype=int)
         if episode_start is not None:
             self._lead[np.broadcast_to(np.asarray(episode_start, dtype=bool).reshape(-1), (n_batch,))] = -1
         banks = np.arange(n_batch)
         lead = self._lead
-        # The lead keeps its place while it asks the whole cycle; else the largest error asking anything.
-        keep = (lead >= 0) & (ask[banks, np.maximum(lead, 0)] >= 1.0 - 1e-6)
-        candidate = np.argmax(np.where(ask > 0.0, error_m, -np.inf), axis=1)
-        lead = np.where(keep, lead, np.where(ask.max(axis=1) > 0.0, candidate, -1))
-        self._lead = lead
+        # The lead keeps its place while it asks the whole cycle, up to the limit; else the
+        # largest error asking anything (passing over a lead that reached the limit, if another asks).
+        full = (lead >= 0) & (ask[banks, np.maximum(lead, 0)] >= 1.0 - 1e-6)
+        keep = full & (self._held < self.lead_limit_steps)
+        asking = ask > 0.0
+        passed = np.zeros_like(asking)
+        passed[banks[full & ~keep], lead[full & ~keep]] = True
+        passed &= (asking & ~passed).any(axis=1, keepdims=True)
+        candidate = np.argmax(np.where(asking & ~passed, error_m, -np.inf), axis=1)
+        new = np.where(keep, lead, np.where(asking.any(axis=1), candidate, -1))
+        self._held = np.where(keep, self._held + 1, (new >= 0).astype(int))
+        self._lead = lead = new
         key = np.array(error_m, dtype=float)
         key[banks[lead >= 0], lead[lead >= 0]] = np.inf
         order = np.argsort(-key, axis=1, kind="stable")

@@ -900,7 +900,11 @@ def evaluate(
         run_chapter_8(chosen + tracking_agents, results, seeds)
     if "9" in experiments:
         chosen = [e for e in base if e.name == "PID"] if baselines is None else base
-        banks = [bank_entry(PID, "fixed_slots"), bank_entry(PID, "shared_budget")]
+        banks = [
+            bank_entry(PID, "fixed_slots"),
+            bank_entry(PID, "shared_budget"),
+            bank_entry(PID, "shared_budget", "priority"),
+        ]
         run_chapter_9(chosen + ([banks[1]] if baselines is None else []), results)
         run_bank_step(banks, results)
         for agent in bank_agents:

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import sma_gym  # noqa: F401  (registers the ids)
 from sma_gym_agents.bank import CONTEXT_FEATURES, BankAgent, BankView
+from sma_gym_agents.card import PolicyCard
 from sma_gym_agents.training.config import RunConfig, parse_args
 from sma_gym_agents.training.envs import make_vec_env
 
@@ -65,6 +68,16 @@ def test_train_py_config_trains_the_bank_with_its_wrapper_only():
     )
     assert run.env_kwargs["n_actuators"] == 16 and run.env_kwargs["scheme"] == "shared_budget"
     assert (run.history, run.residual, run.residual_scale, run.frame_stack) == ("none", "VSC3 + FF", 1.0, 1)
+    # The file's base grants an overrun shared budget by priority; the card says so, and reads back.
+    assert run.residual_allocation == "priority"
+    card = run.card(run.agent_name)
+    assert card.as_dict()["residual_allocation"] == "priority"
+    assert PolicyCard.from_dict(card.as_dict()).residual_allocation == "priority"
+    assert "residual_allocation" not in replace(card, residual_allocation="proportional").as_dict()
+    with pytest.raises(ValueError, match="residual_allocation = 'greedy'"):
+        PolicyCard.from_dict({**card.as_dict(), "residual_allocation": "greedy"})
+    with pytest.raises(ValueError, match="residual_allocation = 'greedy'"):
+        replace(run, residual_allocation="greedy").checked()
     plain = RunConfig.from_args(parse_args(["--env", "SMAMultiplexed-v0", "--residual", "none"]))
     assert plain.residual is None
     with pytest.raises(ValueError, match="--history none"):
@@ -123,17 +136,22 @@ def test_bank_vec_env_calls_a_method_only_on_the_banks_the_indices_touch():
     assert venv.env_method("reset") == ["bank 0"] * 3 + ["bank 1"] * 3 and inner.calls[-1] == [0, 1]
 
 
-@pytest.mark.parametrize("scheme", ["fixed_slots", "shared_budget"])
-def test_a_residual_bank_agent_that_corrects_nothing_is_the_bank_baseline(scheme):
+@pytest.mark.parametrize(
+    "scheme, allocation",
+    [("fixed_slots", "proportional"), ("shared_budget", "proportional"), ("shared_budget", "priority")],
+)
+def test_a_residual_bank_agent_that_corrects_nothing_is_the_bank_baseline(scheme, allocation):
     from sma_gym_agents.bank import BankResidual, bank_policy
 
     kwargs = {"n_actuators": 4, "control_period_s": 0.01, "scheme": scheme}
-    venv = make_vec_env("SMAMultiplexed-v0", 2, kwargs, 1, 0, residual="VSC3 + FF", residual_scale=1.0)
+    venv = make_vec_env(
+        "SMAMultiplexed-v0", 2, kwargs, 1, 0, residual="VSC3 + FF", residual_scale=1.0, allocation=allocation
+    )
     assert venv.observation_space.shape == (15,)
     # The same two banks, seeded as make_vec_env seeds them, under the baseline alone.
     envs = [gym.make("sma_gym:SMAMultiplexed-v0", **kwargs) for _ in range(2)]
     obs = np.stack([env.reset(seed=b)[0] for b, env in enumerate(envs)])
-    baseline = bank_policy("VSC3 + FF", envs[0])
+    baseline = bank_policy("VSC3 + FF", envs[0], allocation)
     rows = venv.reset()
     for t in range(40):
         np.testing.assert_array_equal(rows[:, :14], BankView(scheme).rows(obs))

@@ -1,5 +1,5 @@
 """Bank baselines (issue 16): the report's controllers per actuator on fixed slots, and the
-budget allocator on a shared budget; both under evaluate_policy and the harness."""
+budget and priority allocators on a shared budget; under evaluate_policy and the harness."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 import sma_gym  # noqa: F401  (registers the ids)
 from sma_gym_agents import evaluation as ev
-from sma_gym_agents.bank import BudgetAllocator, FixedSlotBank, bank_policy
+from sma_gym_agents.bank import BudgetAllocator, FixedSlotBank, PriorityAllocator, bank_policy
 
 
 def make(n: int, scheme: str, steps: int = 40):
@@ -52,6 +52,98 @@ def test_budget_is_shared_within_each_bank_of_a_batch():
     duty = env.unwrapped.duty_for(action)
     np.testing.assert_allclose(duty.sum(axis=1), [1.0, 1.0, 1.0], rtol=1e-6)
     np.testing.assert_allclose(duty[1], [1.0, 0.0], atol=1e-6)
+
+
+class Asking(PriorityAllocator):
+    """The priority allocator with the controllers' asks set by the test."""
+
+    asks = np.zeros(1)
+
+    def asked_duty(self, observation, episode_start=None):
+        return np.array(self.asks, dtype=float)
+
+
+def bank_obs(env, reference_m, position_m):
+    """Bank observations (batch, n * k) with the given measured positions and references."""
+    u = env.unwrapped
+    names = list(u.feature_names)
+    reference_m, position_m = np.atleast_2d(reference_m), np.atleast_2d(position_m)
+    obs = np.zeros((*reference_m.shape, len(names)))
+    obs[..., names.index("reference")] = reference_m / u.position_scale_m
+    obs[..., names.index("position")] = position_m / u.position_scale_m
+    return obs.reshape(reference_m.shape[0], -1)
+
+
+def test_priority_allocator_serves_the_lead_then_the_largest_errors():
+    env = make(4, "shared_budget")
+    env.reset(seed=0)
+    policy = Asking("VSC3 + FF", env)
+    u = env.unwrapped
+    reference = np.array([[4e-3, 6e-3, 2e-3, 5e-3]])
+
+    def grant(asks, position, start=False):
+        policy.asks = np.atleast_2d(asks)
+        action, _ = policy.predict(bank_obs(env, reference, position), episode_start=np.array([start]))
+        return u.duty_for(action)
+
+    # Asks within the cycle: each gets what it asks, as under the budget allocator.
+    np.testing.assert_allclose(grant([0.2, 0.3, 0.0, 0.4], np.zeros(4), True), [[0.2, 0.3, 0.0, 0.4]], atol=1e-6)
+    # Overrun: the largest error (actuator 1, 6 mm) leads; then actuator 3 (5 mm) gets the rest.
+    np.testing.assert_allclose(grant([0.5, 0.8, 0.1, 0.6], np.zeros(4), True), [[0.0, 0.8, 0.0, 0.2]], atol=1e-6)
+    # A lead asking the whole cycle keeps it though another error is now larger.
+    np.testing.assert_allclose(grant([1.0, 1.0, 0.0, 1.0], np.zeros(4), True), [[0.0, 1.0, 0.0, 0.0]], atol=1e-6)
+    position = np.array([0.0, 3e-3, 0.0, 0.0])  # actuator 1 has 3 mm to go; 3 now has the most (5 mm)
+    np.testing.assert_allclose(grant([1.0, 1.0, 0.0, 1.0], position), [[0.0, 1.0, 0.0, 0.0]], atol=1e-6)
+    # Near its reference the lead asks less: the lead moves to the largest error asking (3), and stays.
+    np.testing.assert_allclose(grant([1.0, 0.3, 0.0, 1.0], position), [[0.0, 0.0, 0.0, 1.0]], atol=1e-6)
+    np.testing.assert_allclose(grant([1.0, 1.0, 0.0, 1.0], position), [[0.0, 0.0, 0.0, 1.0]], atol=1e-6)
+    # An episode start forgets the lead: the largest error (actuator 1 again, from zero) leads.
+    np.testing.assert_allclose(grant([1.0, 1.0, 0.0, 1.0], np.zeros(4), True), [[0.0, 1.0, 0.0, 0.0]], atol=1e-6)
+
+
+def test_priority_allocator_passes_over_a_lead_that_held_the_cycle_for_its_limit():
+    """A wire that cannot reach its reference (beyond the stroke, broken) asks the whole
+    cycle forever; it leads for lead_limit_s at a time, not for ever."""
+    env = make(3, "shared_budget")
+    env.reset(seed=0)
+    policy = Asking("PID", env, lead_limit_s=3e-3)  # three control periods
+    policy.asks = np.ones((1, 3))
+    obs = bank_obs(env, np.array([[20e-3, 4e-3, 2e-3]]), np.zeros((1, 3)))  # actuator 0 can never arrive
+    served = []
+    for k in range(9):
+        action, _ = policy.predict(obs, episode_start=np.array([k == 0]))
+        served.append(int(np.argmax(env.unwrapped.duty_for(action)[0])))
+    assert served == [0, 0, 0, 1, 1, 1, 0, 0, 0]
+    with pytest.raises(ValueError, match="lead_limit_s = 0"):
+        PriorityAllocator("PID", env, lead_limit_s=0)
+
+
+def test_priority_allocator_keeps_a_lead_per_bank_of_a_batch():
+    env = make(2, "shared_budget")
+    env.reset(seed=0)
+    policy = Asking("PID", env)
+    policy.asks = np.ones((3, 2))
+    reference = np.array([[2e-3, 3e-3], [3e-3, 2e-3], [1e-3, 1e-3]])
+    action, _ = policy.predict(bank_obs(env, reference, np.zeros((3, 2))), episode_start=np.ones(3, dtype=bool))
+    duty = env.unwrapped.duty_for(action)
+    np.testing.assert_allclose(duty, [[0.0, 1.0], [1.0, 0.0], [1.0, 0.0]], atol=1e-6)
+    # Bank 0 restarts with its errors swapped and takes its new largest; bank 1 keeps its lead.
+    reference = np.array([[3e-3, 2e-3], [2e-3, 3e-3], [1e-3, 1e-3]])
+    action, _ = policy.predict(bank_obs(env, reference, np.zeros((3, 2))), episode_start=np.array([True, False, False]))
+    np.testing.assert_allclose(env.unwrapped.duty_for(action), [[1.0, 0.0], [1.0, 0.0], [1.0, 0.0]], atol=1e-6)
+
+
+def test_priority_allocator_beats_the_budget_allocator_on_independent_references():
+    """Sixteen actuators on one cycle, each its own reference: serving one at a time moves
+    each in turn where proportional scaling heats all slowly (4.78 -> 2.94 mm at seed 1)."""
+    rms = {
+        allocation: ev.bank_tracking(ev.bank_entry("VSC3 + FF", "shared_budget", allocation), 16, "shared_budget", 1)
+        for allocation in ("proportional", "priority")
+    }
+    assert rms["priority"]["rms_error_m"] < 0.75 * rms["proportional"]["rms_error_m"]
+    with pytest.raises(ValueError, match="allocation = 'greedy'"):
+        bank_policy("PID", make(4, "shared_budget"), "greedy")
+    assert isinstance(bank_policy("PID", make(4, "fixed_slots"), "priority"), FixedSlotBank)
 
 
 @pytest.mark.parametrize("scheme", ["fixed_slots", "shared_budget"])
