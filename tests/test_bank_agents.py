@@ -155,9 +155,17 @@ def test_a_residual_bank_agent_that_corrects_nothing_is_the_bank_baseline(scheme
     rows = venv.reset()
     for t in range(40):
         np.testing.assert_array_equal(rows[:, :14], BankView(scheme).rows(obs))
-        action, _ = baseline.predict(obs, episode_start=np.full(2, t == 0))
-        # The row's last feature is the baseline's share of the actuator's duty range.
-        np.testing.assert_allclose(rows[:, 14], (action.reshape(-1) + 1) / 2, atol=1e-6)
+        starts = np.full(2, t == 0)
+        # The row's last feature is the baseline's share of the actuator's duty range (under
+        # the priority allocator its controller's ask, which the correction changes before
+        # the allocation).
+        if allocation == "priority":  # predict, in its two halves (a controller steps once per call)
+            ask = baseline.asked_duty(obs, starts)
+            np.testing.assert_allclose(rows[:, 14], ask.reshape(-1), atol=1e-6)
+            action = 2.0 * baseline.grant(ask, baseline.tracking_error_m(obs, ask.shape), starts) - 1.0
+        else:
+            action, _ = baseline.predict(obs, episode_start=starts)
+            np.testing.assert_allclose(rows[:, 14], (action.reshape(-1) + 1) / 2, atol=1e-6)
         obs = np.stack([env.step(a)[0] for env, a in zip(envs, action)])
         rows, *_ = venv.step(np.zeros((8, 1), dtype=np.float32))
     assert rows[:, 14].max() >= 0.4  # the baseline heats: shares that matter were compared

@@ -176,3 +176,21 @@ def test_bank_baselines_run_in_the_harness_chapter_9_experiments():
     fixed = ev.bank_step(ev.bank_entry("PID", "fixed_slots"), n=4, step_time_s=1.0, max_after_s=3.0)
     # Four actuators at 10 V: a 1/4 slot is slow, the shared budget lends the idle share.
     assert shared["rise_time_s"] < fixed["half_rise_time_s"]
+
+
+def test_a_priority_residual_corrects_the_asks_and_the_allocator_still_grants():
+    """Under the priority allocator a residual bank agent changes what each controller asks;
+    the allocator still decides who is served, so corrections that all ask for more cannot
+    split the cycle among everyone (the env's proportional scaling would)."""
+    from sma_gym_agents.bank import BankResidual
+
+    env = make(4, "shared_budget")
+    levels = (2e-3, 4e-3, 8e-3, 6e-3)
+    obs, _ = env.reset(seed=0, options={"references": [{"kind": "step", "t1_s": 0.0, "level1_m": v} for v in levels]})
+    residual = BankResidual(env, "VSC3 + FF", 1.0, "priority")
+    ask = residual.observe(obs[None], np.array([True]))
+    assert ask.shape == (1, 4) and ask.max() > 0.9  # every controller far below asks (almost) everything
+    duty = env.unwrapped.duty_for(residual.action(np.ones((1, 4))))
+    np.testing.assert_allclose(duty, [[0.0, 0.0, 1.0, 0.0]], atol=1e-6)  # the largest error, 8 mm
+    duty = env.unwrapped.duty_for(residual.action(-np.ones((1, 4))))
+    np.testing.assert_allclose(duty, 0.0, atol=1e-6)
