@@ -42,6 +42,7 @@ of a stable-baselines3 VecEnv, its reward that actuator's own tracking term).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -106,9 +107,9 @@ class PriorityAllocator(BudgetAllocator):
     the largest error among those asking becomes the lead. A lead that reaches the limit is
     passed over in that choice, so that one wire that cannot reach its reference (beyond
     the stroke, or broken) takes at most ``lead_limit_s`` at a time from the others instead
-    of the whole cycle forever. A wire at 10 V reaches any position within the stroke from
-    rest in well under a second at full duty, so the default limit of 1 s does not cut a
-    reachable rise short.
+    of the whole cycle forever. At 10 V a wire crosses its stroke at full duty in about
+    0.2-0.6 s, so the default limit of 1 s does not cut a reachable rise short there (at
+    lower supplies it may: the lead then alternates, it is not lost).
 
     Why: a wire moves only once it has reached its transformation temperature, and every
     watt it gets before that is partly lost to the air. Proportional scaling splits an
@@ -116,8 +117,8 @@ class PriorityAllocator(BudgetAllocator):
     slot, the fixed-slot bank's, and all heat slowly together; serving one to its reference
     at a time moves each in turn. Measured with VSC3 + FF on sixteen independent references
     (the evaluation's bank tracking, 10 V, worst of three seeds): 4.78 mm RMS proportional,
-    3.40 mm by error alone, 2.83 mm with the lead kept (docs/baselines.md). The holders pay:
-    while the lead takes the cycle, an actuator further down the order cools.
+    3.40 mm by error alone (no lead), 2.94 mm by this rule (docs/baselines.md). The holders
+    pay: while the lead takes the cycle, an actuator further down the order cools.
     """
 
     def __init__(
@@ -128,8 +129,11 @@ class PriorityAllocator(BudgetAllocator):
         lead_limit_s: float = 1.0,
     ):
         super().__init__(spec, env, filter_cutoff_hz)
-        if not (isinstance(lead_limit_s, (int, float)) and lead_limit_s >= self.dt):
-            raise ValueError(f"lead_limit_s = {lead_limit_s!r}: expected seconds >= the control period {self.dt}")
+        number = isinstance(lead_limit_s, (int, float, np.integer, np.floating)) and not isinstance(lead_limit_s, bool)
+        if not (number and math.isfinite(lead_limit_s) and lead_limit_s >= self.dt):
+            raise ValueError(
+                f"lead_limit_s = {lead_limit_s!r}: expected finite seconds >= the control period {self.dt}"
+            )
         self.name = f"{self.spec.label} (priority allocator)"
         self.lead_limit_steps = max(1, int(round(float(lead_limit_s) / self.dt)))
         self._lead: np.ndarray | None = None
@@ -282,12 +286,12 @@ class BankResidual:
     where a share of 1 is the whole slot (1/n) on fixed slots and the whole cycle on a
     shared budget (the env then scales a bank whose shares sum past 1, as it does any
     action). Under the priority allocator the correction applies to each controller's
-    *ask*, and the allocator then grants the corrected asks (``base_share`` is the ask):
-    each actuator's model is trained on its own tracking reward, so corrections added
-    after the allocation would each take more of the cycle for their own actuator and the
-    env's proportional scaling would undo the priority (measured on seed 0: 3.19 mm
-    against the priority allocator's 2.94 mm); before it, the allocator keeps deciding who
-    is served. With ``a = 0`` the agent is the baseline: on a 1/16 slot, where the baseline
+    *ask*, and the allocator then grants the corrected asks (``base_share`` is the ask), so
+    the allocator keeps deciding who is served. Each actuator's model is trained on its own
+    tracking reward; corrections added after the allocation can take more of the cycle for
+    their own actuator, and the env's proportional scaling of an overrun then undoes the
+    priority: two seeds trained that way scored 3.19 and 2.67 mm against the allocator's
+    2.94 mm, five trained on the ask 2.74-2.75 mm (docs/training.md). With ``a = 0`` the agent is the baseline: on a 1/16 slot, where the baseline
     heats at the cap and a wire takes seconds to answer, training starts from there instead
     of from half a slot (docs/training.md). Used by the training wrapper
     (:class:`sma_gym_agents.training.envs.BankVecEnv`) and by :class:`BankAgent`, so both

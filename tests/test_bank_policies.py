@@ -114,8 +114,9 @@ def test_priority_allocator_passes_over_a_lead_that_held_the_cycle_for_its_limit
         action, _ = policy.predict(obs, episode_start=np.array([k == 0]))
         served.append(int(np.argmax(env.unwrapped.duty_for(action)[0])))
     assert served == [0, 0, 0, 1, 1, 1, 0, 0, 0]
-    with pytest.raises(ValueError, match="lead_limit_s = 0"):
-        PriorityAllocator("PID", env, lead_limit_s=0)
+    for bad in (0, float("inf"), float("nan"), True, "1"):
+        with pytest.raises(ValueError, match=f"lead_limit_s = {bad!r}: expected finite"):
+            PriorityAllocator("PID", env, lead_limit_s=bad)
 
 
 def test_priority_allocator_keeps_a_lead_per_bank_of_a_batch():

@@ -299,10 +299,10 @@ class RunConfig:
     threads: int
     """torch intra-op threads."""
     quick: bool
-    model_kwargs: dict[str, Any] = field(default_factory=dict)
-    """Keyword arguments of the stable-baselines3 algorithm (``policy`` included if set)."""
     residual_allocation: str = "proportional"
     """How a residual bank agent's base grants an overrun shared budget (:data:`ALLOCATIONS`)."""
+    model_kwargs: dict[str, Any] = field(default_factory=dict)
+    """Keyword arguments of the stable-baselines3 algorithm (``policy`` included if set)."""
 
     @classmethod
     def from_args(cls, args: argparse.Namespace) -> RunConfig:
