@@ -3,11 +3,12 @@
 >>> import gymnasium as gym
 >>> from stable_baselines3.common.evaluation import evaluate_policy
 >>> from sma_gym_agents.bank import BudgetAllocator
->>> env = gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=16, scheme="shared_budget", control_period_s=1e-3)
+>>> from stable_baselines3.common.monitor import Monitor
+>>> env = Monitor(gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=16, scheme="shared_budget", control_period_s=1e-3))
 >>> policy = BudgetAllocator("PID", env)
 >>> mean_reward, _ = evaluate_policy(policy, env, n_eval_episodes=1)   # doctest: +SKIP
 
-Two policies, both one of the report's controllers (:mod:`sma_gym_agents.controllers`) per
+Three policies, each one of the report's controllers (:mod:`sma_gym_agents.controllers`) per
 actuator, each on what a real controller of that actuator reads (its measured position, its
 reference and rate):
 
@@ -29,9 +30,9 @@ the budget is shared within each bank, never across banks.
 Agents that scale with n (one policy for any bank of 1 to 16): parameter sharing.
 :class:`BankView` turns a bank's observation into one row per actuator: that actuator's own
 features plus :data:`CONTEXT_FEATURES`, a few bank-level numbers that do not grow with n.
-:class:`BankVecEnv` makes every actuator of every bank one sub-env of a stable-baselines3
-VecEnv (its own reward, the tracking term of its actuator), so one SAC policy learns to act
-for each actuator; :class:`BankAgent` runs such a model on a bank of any size. With a
+:class:`sma_gym_agents.training.envs.BankVecEnv` makes every actuator of every bank one
+sub-env of a stable-baselines3 VecEnv (its own reward, the tracking term of its actuator),
+so one SAC policy learns to act for each actuator; :class:`BankAgent` runs such a model on a bank of any size. With a
 residual base (:class:`BankResidual`) the model corrects the bank baseline's action for
 its actuator instead of choosing the whole duty, as the single-wire agents correct theirs
 (:mod:`sma_gym_agents.residual`). Training:
@@ -56,7 +57,12 @@ from sma_gym_agents.policies import ControllerPolicy, env_attr
 
 
 def _require_scheme(env: Any, scheme: str, policy: str) -> None:
-    actual = env_attr(env, "scheme")
+    try:
+        actual = env_attr(env, "scheme")
+    except AttributeError:
+        actual = None
+    if actual is None:
+        raise ValueError(f"{policy}: the env has no multiplexed bank (scheme): expected SMAMultiplexed-v0")
     if actual != scheme:
         raise ValueError(f"{policy}: env scheme = {actual!r}: expected {scheme!r} (SMAMultiplexed-v0's `scheme`)")
 
@@ -75,7 +81,7 @@ class BudgetAllocator(ControllerPolicy):
 
     def __init__(self, spec: ControllerSpec | str, env: Any, filter_cutoff_hz: float | None = None):
         super().__init__(spec, env, filter_cutoff_hz)
-        _require_scheme(env, "shared_budget", "BudgetAllocator")
+        _require_scheme(env, "shared_budget", type(self).__name__)
         self.name = f"{self.spec.label} (budget allocator)"
 
     def asked_duty(self, observation: np.ndarray, episode_start: Any = None) -> np.ndarray:

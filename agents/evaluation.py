@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from sma_gym_agents.bank import bank_policy
+from sma_gym_agents.card import ALLOCATIONS
 from sma_gym_agents.controllers import (
     ALL_SPECS,
     PID,
@@ -165,6 +166,10 @@ def bank_entry(spec: ControllerSpec | str, scheme: str, allocation: str = "propo
     scheme) or on a shared budget under the budget allocator (``allocation="proportional"``)
     or the priority allocator (``"priority"``) (:func:`sma_gym_agents.bank.bank_policy`)."""
     s = spec_by_label(spec) if isinstance(spec, str) else spec
+    if allocation not in ALLOCATIONS:
+        raise ValueError(f"allocation = {allocation!r}: expected one of {ALLOCATIONS}")
+    if scheme not in ("fixed_slots", "shared_budget"):
+        raise ValueError(f"scheme = {scheme!r}: expected 'fixed_slots' or 'shared_budget'")
     if scheme != "shared_budget":
         suffix = "fixed slots"
     else:

@@ -156,6 +156,52 @@ def chapter_9_markdown(results: Results) -> str:
     return "\n".join(lines)
 
 
+def bank_markdown(results: Results) -> str:
+    """The multiplexed bank's tables (issue 16): the bank step (experiment ``"9 bank"``) and
+    tracking on independent references (``"9 bank tracking"``), each a mean over seeds with
+    the worst seed in parentheses, lengths in mm."""
+
+    def cell(r, scale: float = 1e3, digits: int = 3) -> str:
+        if math.isinf(r.value):
+            return "never"
+        return f"{r.value * scale:.{digits}f} ({r.worst * scale:.{digits}f})"
+
+    lines: list[str] = []
+    steps = [r for r in results.records if r.experiment == "9 bank" and r.metric == "rise_time_s"]
+    if steps:
+        lines += [
+            "### The bank step: one actuator 0 -> 8 mm while the others hold (mean over seeds, worst in parentheses)",
+            "",
+            "| policy | condition | rise to 90 % [s] | to 50 % [s] | holders' worst error [mm] |",
+            "|---|---|---|---|---|",
+        ]
+        for r in steps:
+            half = next(
+                x
+                for x in results.records
+                if x.experiment == "9 bank" and x.policy == r.policy and x.metric == "half_rise_time_s"
+            )
+            holders = next(
+                x
+                for x in results.records
+                if x.experiment == "9 bank" and x.policy == r.policy and x.metric == "holders_max_error_m"
+            )
+            lines.append(f"| {r.policy} | {r.condition} | {cell(r, 1.0)} | {cell(half, 1.0)} | {cell(holders)} |")
+        lines.append("")
+    tracking = [r for r in results.records if r.experiment == "9 bank tracking" and r.metric == "rms_error_m"]
+    if tracking:
+        lines += [
+            "### The bank on independent references (RMS tracking error, mean over seeds, worst in parentheses)",
+            "",
+            "| policy | condition | RMS [mm] | energy [J] |",
+            "|---|---|---|---|",
+        ]
+        for r in tracking:
+            energy = results.value("9 bank tracking", r.policy, r.condition, r.reference, "energy_j")
+            lines.append(f"| {r.policy} | {r.condition} | {cell(r)} | {energy:.1f} |")
+    return "\n".join(lines).rstrip()
+
+
 def _plot_responses(
     results: Results, experiment: str, condition: str, reference: str, policies: Sequence[str], title: str, out: Path
 ) -> Path | None:
@@ -271,6 +317,8 @@ def write_report(results: Results, out: Path) -> list[Path]:
         )
         axes[0, 0].legend(fontsize=7)
         paths.append(save(fig, out / "fig9_multiplexed.png"))
+    if _policies(results, "9 bank") or _policies(results, "9 bank tracking"):
+        sections += [bank_markdown(results), ""]
     # The nominal model changes under the same env ids: the report names the code it measured.
     sections += [f"Code: {describe(provenance())}."]
     md = out / "evaluation.md"

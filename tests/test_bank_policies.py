@@ -195,3 +195,24 @@ def test_a_priority_residual_corrects_the_asks_and_the_allocator_still_grants():
     np.testing.assert_allclose(duty, [[0.0, 0.0, 1.0, 0.0]], atol=1e-6)  # the largest error, 8 mm
     duty = env.unwrapped.duty_for(residual.action(-np.ones((1, 4))))
     np.testing.assert_allclose(duty, 0.0, atol=1e-6)
+
+
+def test_the_evaluation_report_shows_the_bank_tables_and_bad_bank_entries_are_refused_at_once(tmp_path):
+    from sma_gym_agents.report import write_report
+
+    with pytest.raises(ValueError, match="allocation = 'bogus'"):
+        ev.bank_entry("VSC3 + FF", "shared_budget", "bogus")
+    with pytest.raises(ValueError, match="scheme = 'shared'"):
+        ev.bank_entry("VSC3 + FF", "shared")
+    with pytest.raises(ValueError, match="PriorityAllocator: env scheme = 'fixed_slots'"):
+        PriorityAllocator("PID", make(2, "fixed_slots"))
+    with pytest.raises(ValueError, match="no multiplexed bank"):
+        PriorityAllocator("PID", gym.make("sma_gym:SMATracking-v0"))
+    results = ev.Results()
+    entries = [ev.bank_entry("PID", "shared_budget"), ev.bank_entry("PID", "shared_budget", "priority")]
+    ev.run_bank_tracking(entries, results, 2, "shared_budget", seeds=(0,))
+    write_report(results, tmp_path)
+    text = (tmp_path / "evaluation.md").read_text()
+    assert "The bank on independent references" in text
+    assert "| PID (budget allocator) | 2 actuators, shared budget |" in text
+    assert "| PID (priority allocator) | 2 actuators, shared budget |" in text
