@@ -164,7 +164,7 @@ class PriorityAllocator(BudgetAllocator):
         n_batch, n = shape
         features = np.asarray(observation, dtype=float).reshape(n_batch, n, self.k)
         scale = self._scale(self.position_scale_m, n_batch, n)
-        error_m = (features[..., self._index["reference"]] - features[..., self._index["position"]]) * scale
+        error_m = features[..., self._index["reference"]] * scale - self.position_m(features, scale)
         return np.broadcast_to(error_m, shape)
 
     def grant(self, ask: np.ndarray, error_m: np.ndarray, episode_start: Any = None) -> np.ndarray:
