@@ -18,7 +18,9 @@ def fresh(monkeypatch):
     prov._provenance.cache_clear()
 
 
-def test_the_checkout_reports_its_own_commit():
+def test_the_checkout_reports_its_own_commit(fresh):
+    # fresh: computed now, not at the process's first call, so that a commit made while the
+    # suite runs (provenance is cached per process on purpose) is not reported as a mismatch.
     record = prov.provenance()
     assert record["sma_gym_version"] == __version__
     top = prov._git("rev-parse", "--show-toplevel")
