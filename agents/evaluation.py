@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from sma_gym.electrical.multiplexer import SCHEMES
 from sma_gym_agents.bank import bank_policy
 from sma_gym_agents.card import ALLOCATIONS
 from sma_gym_agents.controllers import (
@@ -168,8 +169,8 @@ def bank_entry(spec: ControllerSpec | str, scheme: str, allocation: str = "propo
     s = spec_by_label(spec) if isinstance(spec, str) else spec
     if allocation not in ALLOCATIONS:
         raise ValueError(f"allocation = {allocation!r}: expected one of {ALLOCATIONS}")
-    if scheme not in ("fixed_slots", "shared_budget"):
-        raise ValueError(f"scheme = {scheme!r}: expected 'fixed_slots' or 'shared_budget'")
+    if scheme not in SCHEMES:
+        raise ValueError(f"scheme = {scheme!r}: expected one of {SCHEMES}")
     if scheme != "shared_budget":
         suffix = "fixed slots"
     else:
