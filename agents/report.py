@@ -161,10 +161,12 @@ def bank_markdown(results: Results) -> str:
     tracking on independent references (``"9 bank tracking"``), each a mean over seeds with
     the worst seed in parentheses, lengths in mm."""
 
-    def cell(r, scale: float = 1e3, digits: int = 3) -> str:
-        if math.isinf(r.value):
+    def cell(experiment: str, r, metric: str, scale: float = 1e3) -> str:
+        mean = results.value(experiment, r.policy, r.condition, r.reference, metric)
+        worst = results.value(experiment, r.policy, r.condition, r.reference, metric, worst=True)
+        if math.isinf(mean):
             return "never"
-        return f"{r.value * scale:.{digits}f} ({r.worst * scale:.{digits}f})"
+        return f"{mean * scale:.3f} ({worst * scale:.3f})"
 
     lines: list[str] = []
     steps = [r for r in results.records if r.experiment == "9 bank" and r.metric == "rise_time_s"]
@@ -176,17 +178,10 @@ def bank_markdown(results: Results) -> str:
             "|---|---|---|---|---|",
         ]
         for r in steps:
-            half = next(
-                x
-                for x in results.records
-                if x.experiment == "9 bank" and x.policy == r.policy and x.metric == "half_rise_time_s"
+            rise, half = (cell("9 bank", r, m, 1.0) for m in ("rise_time_s", "half_rise_time_s"))
+            lines.append(
+                f"| {r.policy} | {r.condition} | {rise} | {half} | {cell('9 bank', r, 'holders_max_error_m')} |"
             )
-            holders = next(
-                x
-                for x in results.records
-                if x.experiment == "9 bank" and x.policy == r.policy and x.metric == "holders_max_error_m"
-            )
-            lines.append(f"| {r.policy} | {r.condition} | {cell(r, 1.0)} | {cell(half, 1.0)} | {cell(holders)} |")
         lines.append("")
     tracking = [r for r in results.records if r.experiment == "9 bank tracking" and r.metric == "rms_error_m"]
     if tracking:
@@ -198,7 +193,7 @@ def bank_markdown(results: Results) -> str:
         ]
         for r in tracking:
             energy = results.value("9 bank tracking", r.policy, r.condition, r.reference, "energy_j")
-            lines.append(f"| {r.policy} | {r.condition} | {cell(r)} | {energy:.1f} |")
+            lines.append(f"| {r.policy} | {r.condition} | {cell('9 bank tracking', r, 'rms_error_m')} | {energy:.1f} |")
     return "\n".join(lines).rstrip()
 
 

@@ -216,3 +216,9 @@ def test_the_evaluation_report_shows_the_bank_tables_and_bad_bank_entries_are_re
     assert "The bank on independent references" in text
     assert "| PID (budget allocator) | 2 actuators, shared budget |" in text
     assert "| PID (priority allocator) | 2 actuators, shared budget |" in text
+    # The bank step's table: mean over seeds, the worst in parentheses, "never" for no rise.
+    step = {"rise_time_s": [np.inf, np.inf], "half_rise_time_s": [13.9, 13.8], "holders_max_error_m": [5e-6, 1.5e-5]}
+    results.records += ev._records("9 bank", "PID (fixed slots)", "16 actuators", "bank step", step)
+    write_report(results, tmp_path)
+    text = (tmp_path / "evaluation.md").read_text()
+    assert "| PID (fixed slots) | 16 actuators | never | 13.850 (13.900) | 0.010 (0.015) |" in text
