@@ -211,7 +211,12 @@ def _synth_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--position-noise", type=float, default=5e-6, help="m (default 5e-6)")
     p.add_argument("--position-resolution", type=float, default=1e-6, help="m (default 1e-6)")
     p.add_argument("--resistance-noise", type=float, default=2e-3, help="ohm (default 2e-3)")
-    p.add_argument("--sample-period", type=float, default=1e-3, help="s (default 1e-3: 1 kHz)")
+    p.add_argument(
+        "--sample-period",
+        type=float,
+        default=1e-3,
+        help="s between rows, and between the recording controller's commands (default 1e-3: 1 kHz)",
+    )
     p.add_argument("--no-electrical", action="store_true", help="record position only (no R, I, V)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--overwrite", action="store_true", help="replace an existing file")

@@ -348,6 +348,7 @@ def _run(
     kp: float,
     duty_min: float,
     rest_steps: int,
+    update_every: int,
     substeps: int,
     control_period_s: float,
     noise: np.ndarray,
@@ -358,8 +359,9 @@ def _run(
 ) -> None:
     """Advance control step by control step; ``out[k]`` is recorded at the end of step k.
 
-    Closed loop when ``kp > 0`` (duty from the reference and the last position reading),
-    open loop from ``duty_cmd`` otherwise. Columns of ``out``: 0 duty, 1 x, 2 v, 3 T,
+    Closed loop when ``kp > 0`` (duty from the reference and the last position reading,
+    updated every ``update_every`` control steps and held in between), open loop from
+    ``duty_cmd`` otherwise. Columns of ``out``: 0 duty, 1 x, 2 v, 3 T,
     4 sigma, 5 xi, 6 position reading, 7 R true, 8 R reading, 9 I reading, 10 V reading,
     11 E_el, 12 E_conv, 13 E_latent, 14 W_mech, 15 heating mode, 16 cut, 17 power.
     """
@@ -377,9 +379,11 @@ def _run(
     extreme = y[TEMP] - y[SIGMA] / p[P_CM]
     cut = False
     reading = 0.5 * p[P_ABBE] * y[ABBE]
+    duty = 0.0
     for k in range(duty_cmd.size):
         if kp > 0.0:
-            duty = 0.0 if k < rest_steps else min(1.0, max(duty_min, kp * (reference[k] - reading)))
+            if k % update_every == 0:
+                duty = 0.0 if k < rest_steps else min(1.0, max(duty_min, kp * (reference[k] - reading)))
         else:
             duty = min(1.0, max(0.0, duty_cmd[k]))
         power_sum = 0.0
@@ -545,12 +549,14 @@ def simulate(
     electrical: bool = True,
     seed: int = 0,
     substeps: int | None = None,
+    controller_every: int = 1,
 ) -> dict[str, np.ndarray]:
     """Run the independent model; every quantity of :data:`RECORD_COLUMNS` per 1 ms step.
 
     Give either ``duty`` (open loop, one value per control step) or ``excitation`` (closed
     loop: a P controller follows that reference, as ``sma-gym synth`` records its data).
-    ``time_s`` is the end of each control step.
+    ``time_s`` is the end of each control step. The P controller commands every
+    ``controller_every`` control steps (a lab logging at 100 Hz also commands at 100 Hz).
     """
     if isinstance(params, str):
         params = preset(params)
@@ -583,6 +589,7 @@ def simulate(
         kp,
         duty_min,
         int(round(REST_S / CONTROL_PERIOD_S)),
+        int(controller_every),
         int(substeps),
         CONTROL_PERIOD_S,
         noise,
@@ -653,6 +660,7 @@ def generate(
         resistance_noise_ohm=resistance_noise_ohm,
         electrical=electrical,
         seed=seed,
+        controller_every=every,
     )
     n = run["duty"].size
     t = np.r_[0.0, run["time_s"]][::every]

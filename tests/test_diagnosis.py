@@ -211,6 +211,38 @@ def test_cli_reports_bad_files_with_exit_code_two_and_leaves_them_alone(tmp_path
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("excitation", ["steps", "chirp"])
+def test_a_file_sampled_at_100_hz_holds_the_duty_the_actuator_got(excitation):
+    """At 100 Hz the recording's controller commands every 10 ms, so the model that made the
+    data, run on the file's duty column, reproduces the file to the noise. (A 1 ms loop logged
+    every 10th step hid nine duties in ten: the truth itself missed by 13-27x the noise, and
+    no diagnosis could get a clean 100 Hz file right.)"""
+    from sma_gym.diagnosis import fitting
+    from sma_gym.diagnosis.synth import perturb
+
+    spec = SynthSpec(ModelConfig(), excitation=excitation, duration_s=20.0, perturb=0.05, sample_period_s=0.01, seed=3)
+    trace, _ = generate(spec)
+    assert np.all(trace.duty[: int(1.0 / 0.01)] == 0.0) and trace.duty.max() > 0.5  # 1 s at rest
+    truth, _ = perturb(spec.truth(), spec.perturb, np.random.default_rng(spec.seed))
+    # The truth without sensor noise: the residual is then the file's noise alone.
+    exact = truth.with_actuator(
+        **{
+            f"sensors.{name}": 0.0
+            for name in (
+                "position_noise_std_m",
+                "position_resolution_m",
+                "resistance_noise_std_ohm",
+                "current_noise_std_a",
+                "voltage_noise_std_v",
+            )
+        }
+    )
+    data = fitting.prepare(trace, 1e-3)
+    rms = fitting.rms_by_output(fitting.simulate([exact], [0.0], data, 1e-3), data)
+    assert rms["position"] < 1.5 * spec.position_noise_m, rms
+    assert rms["resistance"] < 1.5 * spec.resistance_noise_ohm, rms
+
+
 def test_synth_cli_writes_data_sidecar_and_separate_labels(tmp_path, capsys):
     code = main(
         [

@@ -476,3 +476,18 @@ def test_trace_round_trips_through_the_csv_writer_and_loader(
     # A closed-loop recording: rest first, then the P controller moves the actuator.
     assert np.all(trace.duty[: int(0.9 / sample_period_s)] == 0.0)
     assert trace.position.max() > 2e-3
+
+
+@pytest.mark.parametrize("sample_period_s", [2e-3, 1e-2])
+def test_a_slower_file_holds_the_duty_the_actuator_got(sample_period_s: float) -> None:
+    """The P controller commands once per sample, so the file's duty column (held from each
+    row to the next) is exactly the duty applied at every 1 ms step: a file that logged one
+    duty in ten of a 1 ms loop would describe an input the actuator never got."""
+    every = int(round(sample_period_s / ind.CONTROL_PERIOD_S))
+    trace, _ = ind.generate(STANDARD, excitation="random", duration_s=6.0, sample_period_s=sample_period_s, seed=9)
+    noise = {"position_noise_m": 5e-6, "position_resolution_m": 1e-6, "resistance_noise_ohm": 2e-3}  # generate's
+    run = ind.simulate(STANDARD, excitation="random", duration_s=6.0, seed=9, controller_every=every, **noise)
+    applied = run["duty"].reshape(-1, every)
+    assert np.all(applied == applied[:, :1]), "the duty changed inside a sample interval"
+    np.testing.assert_array_equal(trace.duty[:-1], applied[:, 0])
+    assert applied.max() > 0.5 and np.unique(applied[:, 0]).size > 50  # a closed loop at work

@@ -1,7 +1,8 @@
 """Synthetic measured traces with a hidden effect (``sma-gym synth``).
 
 A trace is recorded the way a lab would: a P controller (Kp = 1000 per metre, the report's
-gain) drives the actuator to follow an excitation reference, and the commanded duty, the
+gain) drives the actuator to follow an excitation reference, commanding once per sample
+(``--sample-period``; the actuator is simulated in 1 ms steps), and the commanded duty, the
 position reading and the electrical readings are written in the measured-data format. The
 duty is kept at or above the minimum that makes resistance readable, so that R, I and V can
 be recorded (the report's self-sensing practice, §4.1).
@@ -183,17 +184,22 @@ def generate(spec: SynthSpec) -> tuple[MeasuredTrace, dict[str, Any]]:
         # Long enough pulses for a V/I reading, with margin (§4.1).
         duty_min = 1.2 * p.driver.settling_time_s * p.driver.pwm_frequency_hz
     n = ref.size
+    every = max(1, int(round(spec.sample_period_s / CONTROL_PERIOD_S)))
     rec = {k: np.empty(n) for k in ("duty", "position", "resistance", "current", "voltage")}
+    duty = 0.0
     for k in range(n):
-        # The first second at rest: a recording starts with the sensor zero.
-        duty = 0.0 if k < REST_STEPS else min(1.0, max(duty_min, KP_PER_M * (ref[k] - sim.position_measured_m[0])))
+        # The controller runs at the sample rate: a lab that logs every 10 ms commands every
+        # 10 ms, so the file's duty column is exactly the input the actuator got (a 1 ms loop
+        # logged every 10th step would hide nine duties in ten from the diagnosis).
+        if k % every == 0:
+            # The first second at rest: a recording starts with the sensor zero.
+            duty = 0.0 if k < REST_STEPS else min(1.0, max(duty_min, KP_PER_M * (ref[k] - sim.position_measured_m[0])))
         sim.step(duty)
         rec["duty"][k] = duty
         rec["position"][k] = sim.position_measured_m[0]
         rec["resistance"][k] = sim.resistance_measured_ohm[0]
         rec["current"][k] = sim.current_measured_a[0]
         rec["voltage"][k] = sim.voltage_measured_v[0]
-    every = max(1, int(round(spec.sample_period_s / CONTROL_PERIOD_S)))
     # Sample k is taken at the end of control step k; the duty is what was commanded then
     # (the measured-data format holds the duty from each sample to the next).
     t = (np.arange(n) + 1) * CONTROL_PERIOD_S
@@ -220,6 +226,8 @@ def generate(spec: SynthSpec) -> tuple[MeasuredTrace, dict[str, Any]]:
         "perturbation": perturbation,
         "excitation": spec.excitation,
         "duration_s": spec.duration_s,
+        # The P controller commanded once per sample (see the loop above).
+        "sample_period_s": every * CONTROL_PERIOD_S,
         "position_noise_m": spec.position_noise_m,
         "resistance_noise_ohm": spec.resistance_noise_ohm,
         "seed": spec.seed,
