@@ -215,7 +215,7 @@ def test_cli_reports_bad_files_with_exit_code_two_and_leaves_them_alone(tmp_path
 def test_a_file_sampled_at_100_hz_holds_the_duty_the_actuator_got(excitation):
     """At 100 Hz the recording's controller commands every 10 ms, so the model that made the
     data, run on the file's duty column, reproduces the file to the noise. (A 1 ms loop logged
-    every 10th step hid nine duties in ten: the truth itself missed by 13-27x the noise, and
+    every 10th step hid nine duties in ten: the truth itself missed by 12-27x the noise, and
     no diagnosis could get a clean 100 Hz file right.)"""
     from sma_gym.diagnosis import fitting
     from sma_gym.diagnosis.synth import perturb
