@@ -131,7 +131,7 @@ def chapter_8_markdown(results: Results) -> str:
 def chapter_9_markdown(results: Results) -> str:
     rows = [r for r in results.records if r.experiment == "9" and r.metric == "rise_time_s"]
     lines = [
-        "### Chapter 9: multiplexed 3 mm step (rise time to 90 %, oscillation over the last 2 s)",
+        "### Chapter 9: multiplexed 3 mm step (rise time to 90 %, oscillation about its trend line over the last 2 s)",
         "",
         "| policy | condition | rise time [s] | p2p oscillation [mm] | overshoot [mm] |",
         "|---|---|---|---|---|",

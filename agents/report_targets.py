@@ -203,7 +203,7 @@ def table_6_1_rows(m: Metrics) -> list[Row]:
                     f"{_sse_text(sse)} (p2p {fmt(p2p)} mm)",
                     not math.isfinite(sse),
                     f"{label}: {TABLE_6_1_HOW}",
-                    f"oscillates: > {OSCILLATION_P2P_M * 1e3:g} mm peak to peak over the last second",
+                    f"oscillates: > {OSCILLATION_P2P_M * 1e3:g} mm peak to peak about the trend line over the last second",
                 )
             )
         else:
@@ -694,7 +694,7 @@ def chapter_9_rows(results: Results, plan: RunPlan) -> list[Row]:
         ),
         make_row(
             "9j",
-            f"p2p {fmt(p2p20)} mm over the last 2 s",
+            f"p2p {fmt(p2p20)} mm about the trend over the last 2 s",
             p2p20 > OSCILLATION_P2P_M * 1e3,
             f"16 actuators, 20 V; {how}",
             f"p2p > {OSCILLATION_P2P_M * 1e3:g} mm",
@@ -715,7 +715,7 @@ def chapter_9_rows(results: Results, plan: RunPlan) -> list[Row]:
             "9l",
             f"1 actuator p2p {fmt(p2p_mm(1, low))} mm at {low:g} Hz vs <= {fmt(fast_p2p)} mm at >= 1 kHz",
             oscillates(1, low) and p2p_mm(1, low) > 5.0 * fast_p2p,
-            f"p2p over the last 2 s; {how}",
+            f"p2p about the trend line over the last 2 s; {how}",
             f"p2p > {OSCILLATION_P2P_M * 1e3:g} mm and > 5x the >= 1 kHz ones",
         )
     )

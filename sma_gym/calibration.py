@@ -223,6 +223,11 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
     gap = ", ".join(f"{name} {rms['position'] * 1e3:.3f} mm" for name, rms in corrected["fit"].items())
     held = ", ".join(f"{name} {rms['position'] * 1e3:.3f} mm" for name, rms in corrected["heldout"].items())
     found = ", ".join(result.effects_found) or "none"
+    if result.carried:
+        # Say so, or the notes ("effects found: none") would contradict the file's effects.
+        last = result.rounds[-1]["effect"]
+        rivals = last if isinstance(last, str) else " or ".join(last)
+        found += f"; also carries {result.carried}, the best held out of the last round's ambiguous {rivals}"
     # The round that added the twin's last effect fitted the parameters it ships with.
     named = [r for r in result.rounds if r["verdict"] in ("effect", "effects")]
     at_bounds = "; ".join((named or result.rounds)[-1]["parameters_at_bounds"]) or "none"

@@ -243,6 +243,24 @@ def test_a_file_sampled_at_100_hz_holds_the_duty_the_actuator_got(excitation):
     assert rms["resistance"] < 1.5 * spec.resistance_noise_ohm, rms
 
 
+@pytest.mark.parametrize("excitation", ["sine", "chirp", "steps"])
+def test_the_noise_read_off_a_100_hz_file_is_the_sensor_noise_not_the_motion(excitation):
+    """Every "within 2x the noise" and the weights of position against R rest on the noise
+    read off the file. At 100 Hz the wire moves up to ~0.1 mm between rows; first differences
+    counted that as noise (up to 1.9x the true 5 um on these files)."""
+    from sma_gym.diagnosis import fitting
+
+    spec = SynthSpec(ModelConfig(), excitation=excitation, duration_s=30.0, perturb=0.05, sample_period_s=0.01, seed=3)
+    trace, _ = generate(spec)
+    data = fitting.prepare(trace, 1e-3)
+    # The file's position noise: sensor noise and a 1 um quantisation.
+    true_m = float(np.hypot(spec.position_noise_m, spec.position_resolution_m / np.sqrt(12.0)))
+    assert abs(data.noise["position"] / true_m - 1.0) < 0.12, data.noise
+    # White noise alone: the estimate is unbiased whatever the differences' order.
+    rng = np.random.default_rng(0)
+    assert abs(fitting.noise_level(rng.normal(0.0, 2e-3, 20000), 0.0) / 2e-3 - 1.0) < 0.03
+
+
 def test_synth_cli_writes_data_sidecar_and_separate_labels(tmp_path, capsys):
     code = main(
         [

@@ -60,7 +60,13 @@ def write_report(
         headline,
         "",
         f"Nominal model: `{nominal.name}`. Fitted: {', '.join(t.name for t in fit_traces)}. Held out: {result.held_out}.",
-        f"Corrected model: `corrected_model.json` (`gymnasium.make(id, model='corrected_model.json')`). Took {result.seconds:.0f} s.",
+        f"Corrected model: `corrected_model.json` (`gymnasium.make(id, model='corrected_model.json')`). Took {result.seconds:.0f} s."
+        + (
+            f" It also carries `{result.carried}`, the best held out of the last round's ambiguous candidates"
+            " (not named as found)."
+            if result.carried
+            else ""
+        ),
         "",
         "## The gap (RMS error, SI units)",
         "",
@@ -247,8 +253,11 @@ def cross_validation_table(cv: dict[str, Any]) -> str:
         "|---|---|---|---|---|---|",
     ]
     for f in cv["folds"]:
+        # A carried candidate is in the predicting model, so the table says so, apart from the names.
+        carried = [f"carries {f['carried']}"] if f.get("carried") else []
+        effects = ", ".join(f["effects_found"] + carried) or "-"
         lines.append(
-            f"| {f['held_out']} | {', '.join(f['fitted'])} | {f['verdict']} | {', '.join(f['effects_found']) or '-'} | "
+            f"| {f['held_out']} | {', '.join(f['fitted'])} | {f['verdict']} | {effects} | "
             f"{f['position_rms_nominal_m'] * 1e3:.3f} mm | {f['position_rms_corrected_m'] * 1e3:.3f} mm |"
         )
     return "\n".join(lines) + "\n"

@@ -201,10 +201,14 @@ class Diagnosis:
     """Per round: verdict, effect(s), candidates and the gap of that round's model."""
     gap_by_file: dict[str, dict[str, dict[str, dict[str, float]]]] = field(default_factory=dict)
     """Per file (fit and held-out): RMS per output of the nominal and the corrected model."""
+    carried: str | None = None
+    """The candidate the corrected model also carries when the last round was ambiguous (the
+    best held out of its rivals; not among ``effects_found``), else None."""
 
     def as_dict(self) -> dict[str, Any]:
         return {
             "effects_found": self.effects_found,
+            "carried": self.carried,
             "rounds": self.rounds,
             "gap_by_file": self.gap_by_file,
             "verdict": self.verdict,
@@ -298,6 +302,7 @@ def diagnose(
     first: _Round | None = None
     last: _Round | None = None
     chosen_fit: fitting.Fit | None = None
+    carried: str | None = None
     warm: dict[str, float] = {}
     as_given = None  # held-out score of the model as given: the nominal, then each round's result
     for number in range(1, max_rounds + 1):
@@ -353,9 +358,13 @@ def diagnose(
             }
         )
         if not named:
-            if r.verdict == "ambiguous" and not found:
-                # Today's single-round behaviour: the best of the ambiguous pair corrects.
+            if r.verdict == "ambiguous":
+                # Every rival improves on the round's reference held out; only which one is
+                # open. So the best of them corrects the model (in any round: keeping a
+                # later round's reference threw that gain away, e.g. 42 % held out on the
+                # real bench), and stays out of the names found.
                 current, offset, chosen_fit = model_r, offset_r, r.chosen.fit
+                carried = r.chosen.name
             break
         found.extend([r.effect] if isinstance(r.effect, str) else r.effect)
         current, offset, chosen_fit = r.chosen.fit.model, r.chosen.fit.offset, r.chosen.fit
@@ -376,6 +385,9 @@ def diagnose(
         chosen_fit = first.ref.fit
         current, offset = first.ref.fit.model, first.ref.fit.offset
     notes = f"sma-gym diagnose: verdict {verdict}" + (f" ({effect})" if effect else "") + f", {len(rounds)} round(s)"
+    if carried is not None:
+        rivals = last.effect if isinstance(last.effect, str) else " or ".join(last.effect or [])
+        notes += f"; carries {carried}, the best held out of round {len(rounds)}'s ambiguous {rivals}"
     corrected = ModelConfig(current.actuator, current.effects, notes=notes)
 
     say(f"verdict {verdict}; measuring the gap before and after")
@@ -407,6 +419,7 @@ def diagnose(
         effects_found=found,
         rounds=rounds,
         gap_by_file=by_file,
+        carried=carried,
     )
 
 
@@ -959,7 +972,8 @@ def cross_validate(
     predict it: its held-out gains and block test decide what is added.)
 
     Returns ``{"folds": [...]}``, one entry per left-out file with the verdict, the effects
-    found and its position RMS under the nominal and the corrected model (what a model
+    found, the candidate carried from an ambiguous last round (see ``Diagnosis.carried``)
+    and its position RMS under the nominal and the corrected model (what a model
     identified on the other runs predicts for a run it has never seen).
     """
     if len(traces) < 2:
@@ -987,6 +1001,7 @@ def cross_validate(
                 "fitted": [t.name for t in fit],
                 "verdict": result.verdict,
                 "effects_found": result.effects_found,
+                "carried": result.carried,
                 "position_rms_nominal_m": nominal_rms.get("position", math.nan),
                 "position_rms_corrected_m": corrected_rms.get("position", math.nan),
                 "position_noise_m": data.noise.get("position", math.nan),
