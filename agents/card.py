@@ -18,17 +18,20 @@ The JSON document (version 1)::
 
 ``timesteps``, ``train_time_s`` and ``validation_return`` are written only when known;
 ``residual_allocation`` (a bank agent's base on a shared budget, :data:`ALLOCATIONS`) only
-when it is not ``"proportional"``, so cards written before it existed read as they were.
+when it is not ``"proportional"``, and ``residual_filter_s`` (the residual's low-pass) only
+when it is not 0, so cards written before they existed read as they were.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from sma_gym._io import read_json_object, sha256_file, write_json
+from sma_gym_agents.history import HISTORIES
 
 CARD_FORMAT = "sma-gym-policy"
 CARD_VERSION = 1
@@ -42,8 +45,6 @@ CARD_ENV_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0", "SMAMulti
 """Env ids a card may name: those train.py trains on and ``sma-gym evaluate`` scores (an agent
 of any other id would be silently left out of every table)."""
 
-HISTORIES = ("none", "ema")
-"""History features an agent may see (:mod:`sma_gym_agents.history`)."""
 
 ALLOCATIONS = ("proportional", "priority")
 """How a bank baseline on a shared budget grants a cycle its actuators overrun: every ask
@@ -72,7 +73,7 @@ def _problems(values: Mapping[str, Any]) -> list[tuple[str, str]]:
         ("env_id", values.get("env_id") in CARD_ENV_IDS, f"one of {', '.join(CARD_ENV_IDS)}"),
         ("env_kwargs", isinstance(values.get("env_kwargs", {}), dict), "a JSON object of make kwargs"),
         ("frame_stack", _is_int(values.get("frame_stack", 1)) and values.get("frame_stack", 1) >= 1, "an integer >= 1"),
-        ("history", values.get("history", "none") in HISTORIES, "'none' or 'ema'"),
+        ("history", values.get("history", "none") in HISTORIES, f"one of {', '.join(map(repr, HISTORIES))}"),
         (
             "residual",
             values.get("residual") is None or isinstance(values.get("residual"), str),
@@ -82,6 +83,13 @@ def _problems(values: Mapping[str, Any]) -> list[tuple[str, str]]:
             "residual_scale",
             _is_number(values.get("residual_scale", 0.5)) and 0.0 < values.get("residual_scale", 0.5) <= 1.0,
             "a number in (0, 1]",
+        ),
+        (
+            "residual_filter_s",
+            _is_number(values.get("residual_filter_s", 0.0))
+            and math.isfinite(values.get("residual_filter_s", 0.0))
+            and values.get("residual_filter_s", 0.0) >= 0.0,
+            "a time constant >= 0 s (0: no filter)",
         ),
         (
             "residual_allocation",
@@ -108,11 +116,15 @@ class PolicyCard:
     frame_stack: int = 1
     """Stacked observations (stable-baselines3's ``VecFrameStack``) the model expects."""
     history: str = "none"
-    """``"ema"``: :class:`sma_gym_agents.history.HistoryFeatures` appended to the observation."""
+    """``"ema"`` or ``"ema+error"``: :class:`sma_gym_agents.history.HistoryFeatures` appended to
+    the observation (:data:`sma_gym_agents.history.HISTORIES`)."""
     residual: str | None = None
     """Controller label the model corrects (:mod:`sma_gym_agents.residual`), or None."""
     residual_scale: float = 0.5
     """Largest correction of the residual, as a fraction of full duty."""
+    residual_filter_s: float = 0.0
+    """Time constant of the low-pass the residual's correction passes [s] (0: none;
+    :class:`sma_gym_agents.residual.ResidualStep`)."""
     residual_allocation: str = "proportional"
     """A bank agent's base on a shared budget: how it grants an overrun cycle (:data:`ALLOCATIONS`)."""
     seed: int | None = None
@@ -145,8 +157,9 @@ class PolicyCard:
         known = {f for f in cls.__dataclass_fields__ if f in values}
         kwargs = {f: values[f] for f in known}
         kwargs["env_kwargs"] = dict(kwargs.get("env_kwargs", {}))
-        if "residual_scale" in kwargs:
-            kwargs["residual_scale"] = float(kwargs["residual_scale"])
+        for key in ("residual_scale", "residual_filter_s"):
+            if key in kwargs:
+                kwargs[key] = float(kwargs[key])
         return cls(**kwargs)
 
     def as_dict(self) -> dict[str, Any]:
@@ -164,6 +177,8 @@ class PolicyCard:
             "residual_scale": self.residual_scale,
             "seed": self.seed,
         }
+        if self.residual_filter_s != 0.0:
+            out["residual_filter_s"] = self.residual_filter_s
         if self.residual_allocation != "proportional":
             out["residual_allocation"] = self.residual_allocation
         for key in ("timesteps", "train_time_s", "validation_return", "model_sha256"):

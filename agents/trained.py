@@ -37,12 +37,14 @@ class AgentPolicy:
     env_kwargs: dict
     frame_stack: int = 1
     history: str = "none"
-    """``"ema"``: the model expects :class:`sma_gym_agents.history.HistoryFeatures` appended; the
-    policy computes them from the observations it is given, as training did."""
+    """``"ema"`` or ``"ema+error"``: the model expects :class:`sma_gym_agents.history.HistoryFeatures`
+    appended; the policy computes them from the observations it is given, as training did."""
     residual: str | None = None
     """A controller label (e.g. ``"VSC3 + FF"``): the model is a residual on top of it
     (:mod:`sma_gym_agents.residual`); the policy runs that controller, as training did."""
     residual_scale: float = 0.5
+    residual_filter_s: float = 0.0
+    """Time constant of the low-pass the residual's correction passes [s] (0: none)."""
     residual_allocation: str = "proportional"
     """A bank agent's base on a shared budget (:data:`sma_gym_agents.card.ALLOCATIONS`)."""
 
@@ -62,7 +64,7 @@ class AgentPolicy:
             if self._residual is None:
                 self._residual = self._make_residual()
             batch = self._residual.observe(batch, starts)
-        if self.history == "ema":
+        if self.history != "none":
             batch = self._with_history(batch, starts)
         action, state = self.model.predict(batch, state=state, episode_start=episode_start, deterministic=deterministic)
         if self._residual is not None:
@@ -73,13 +75,13 @@ class AgentPolicy:
         """The base controller, built on the env the model trained on (its constants)."""
         env = gym.make("sma_gym:" + self.env_id, **self.env_kwargs)
         try:
-            return ResidualStep(env, self.residual, self.residual_scale)
+            return ResidualStep(env, self.residual, self.residual_scale, self.residual_filter_s)
         finally:
             env.close()
 
     def _with_history(self, batch: np.ndarray, starts: np.ndarray) -> np.ndarray:
         if self._features is None or self._features.n != batch.shape[0]:
-            self._features = HistoryFeatures.for_env(batch.shape[0], self.env_id, self.env_kwargs)
+            self._features = HistoryFeatures.for_env(batch.shape[0], self.env_id, self.env_kwargs, self.history)
             return self._features.reset(batch)
         out, _ = self._features.update(batch, starts)
         return out
@@ -100,6 +102,7 @@ class AgentPolicy:
             history=card.history,
             residual=card.residual,
             residual_scale=card.residual_scale,
+            residual_filter_s=card.residual_filter_s,
             residual_allocation=card.residual_allocation,
         )
 

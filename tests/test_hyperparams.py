@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
+from dataclasses import replace
 from pathlib import Path
 
 import gymnasium as gym
@@ -117,6 +118,8 @@ def test_train_py_reads_the_agent_it_had_from_the_toml_files():
             steps,
         )
         assert (run.n_envs, run.frame_stack, run.eval_freq) == (4, 1, 20_000)
+        # The tracking agent's correction is low-passed (chosen over five seeds, docs/training.md).
+        assert run.residual_filter_s == (0.1 if env_id == "SMATracking-v0" else 0.0)
         assert run.env_kwargs == {"control_period_s": 0.01, "position_noise_std_m": 2e-6}
         assert run.model_kwargs == {
             "policy": "MlpPolicy",
@@ -141,13 +144,16 @@ def test_train_py_reads_the_agent_it_had_from_the_toml_files():
 
 
 def test_agent_features_accept_our_wrappers_in_order_only():
-    assert agent_features(None) == ("none", None, 0.5, "proportional")
-    assert agent_features([HISTORY_WRAPPER]) == ("ema", None, 0.5, "proportional")
+    assert agent_features(None) == ("none", None, 0.5, "proportional", 0.0)
+    assert agent_features([HISTORY_WRAPPER]) == ("ema", None, 0.5, "proportional", 0.0)
     both = [{RESIDUAL_WRAPPER: {"base": "PID", "scale": 0.3}}, HISTORY_WRAPPER]
-    assert agent_features(both) == ("ema", "PID", 0.3, "proportional")
+    assert agent_features(both) == ("ema", "PID", 0.3, "proportional", 0.0)
+    filtered = [{RESIDUAL_WRAPPER: {"base": "PID", "filter_s": 0.1}}, {HISTORY_WRAPPER: {"error_features": True}}]
+    assert agent_features(filtered) == ("ema+error", "PID", 0.5, "proportional", 0.1)
+    assert agent_features([{HISTORY_WRAPPER: {"error_features": False}}]).history == "ema"
     bank = {"base": "PID", "scale": 1.0, "allocation": "priority"}
-    assert agent_features([{BANK_WRAPPER: bank}]) == ("none", "PID", 1.0, "priority")
-    assert agent_features([BANK_WRAPPER]) == ("none", None, 0.5, "proportional")
+    assert agent_features([{BANK_WRAPPER: bank}]) == ("none", "PID", 1.0, "priority", 0.0)
+    assert agent_features([BANK_WRAPPER]) == ("none", None, 0.5, "proportional", 0.0)
     with pytest.raises(ValueError, match="allocation = 'greedy'"):
         agent_features([{BANK_WRAPPER: {**bank, "allocation": "greedy"}}])
     with pytest.raises(ValueError, match="base, scale and allocation"):
@@ -158,6 +164,13 @@ def test_agent_features_accept_our_wrappers_in_order_only():
         agent_features(["stable_baselines3.common.vec_env.VecNormalize"])
     with pytest.raises(ValueError, match="base"):
         agent_features([{RESIDUAL_WRAPPER: {"scale": 0.3}}])
+    with pytest.raises(ValueError, match="base, scale and filter_s"):
+        agent_features([{RESIDUAL_WRAPPER: {"base": "PID", "tau": 0.1}}])
+    with pytest.raises(ValueError, match="error_features: true/false"):
+        agent_features([{HISTORY_WRAPPER: {"error_features": "yes"}}])
+    for bad in (-0.1, float("nan")):
+        with pytest.raises(ValueError, match="filter_s = .*expected a time constant >= 0 s"):
+            replace(RunConfig.from_args(parse_args([])), residual_filter_s=bad).checked()
     with pytest.raises(ValueError, match="policy_kwargs"):
         literal_kwargs("dict(activation_fn=nn.ReLU)", "policy_kwargs")
     assert literal_kwargs("{'net_arch': [64]}", "policy_kwargs") == {"net_arch": [64]}
@@ -214,6 +227,13 @@ def test_the_zoo_preprocesses_every_entry(tmp_path):
             venv = manager.create_envs(2, no_log=True)
             # residual base duty + 5 history features on top of the raw observation
             assert venv.observation_space.shape[0] == gym.make(env_id).observation_space.shape[0] + 1 + 5
+            # The zoo passes the residual's keyword arguments, the low-pass included.
+            from sma_gym_agents.training.envs import ResidualVecEnv
+
+            inner = venv
+            while not isinstance(inner, ResidualVecEnv):
+                inner = inner.venv
+            assert inner.residual.filter_s == 0.1 and 0.0 < inner.residual.beta < 1.0
             venv.close()
 
 

@@ -228,3 +228,22 @@ def test_resume_options_are_checked(capsys, tmp_path):
     assert main(["--seeds", "2", "--resume"]) == 2 and "--out" in capsys.readouterr().err
     assert main(["--seeds", "2", "--resume", "--overwrite", "--out", str(tmp_path)]) == 2
     assert "give one of the two" in capsys.readouterr().err
+
+
+def test_a_run_json_from_before_the_residual_filter_reads_as_no_filter(tmp_path):
+    """A sweep folder written before ``residual_filter_s`` existed resumes as the unfiltered
+    configuration it was, and is refused, by name, for a filtered one."""
+    from dataclasses import replace
+
+    from sma_gym_agents.training.config import RunConfig
+    from sma_gym_agents.training.sweep import finished_seeds
+
+    run = RunConfig.from_args(parse_args(["--quick", "--residual", "none"]))
+    folder = tmp_path / "seed-0"
+    folder.mkdir()
+    old = {k: v for k, v in run.as_dict().items() if k != "residual_filter_s"}
+    (folder / "run.json").write_text(json.dumps({**old, "seed": 0}))
+    (folder / "goals.json").write_text("{}")
+    assert finished_seeds(run, [0], tmp_path) == [0]
+    with pytest.raises(ValueError, match=r"residual_filter_s: 0.0 there, 0.1 now"):
+        finished_seeds(replace(run, residual_filter_s=0.1), [0], tmp_path)

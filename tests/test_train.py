@@ -49,7 +49,7 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
 
     model = SAC.load(out / "best_model.zip", device="cpu")
     card = json.loads((out / "best_model.json").read_text())
-    assert card["history"] == "ema" and card["residual"] == "VSC3 + FF"
+    assert card["history"] == "ema" and card["residual"] == "VSC3 + FF" and card["residual_filter_s"] == 0.1
     # The card names the step of the best validation return, within the budget.
     assert card["validation_return"] is not None and 0 < card["timesteps"] <= 1500
     env = gym.make("sma_gym:" + card["env_id"], **card["env_kwargs"])
@@ -160,5 +160,13 @@ def test_one_card_type_writes_and_reads_one_suffix(tmp_path):
     written = json.loads(card_path(zip_path).read_text())
     assert list(written)[:3] == ["format", "version", "algo"] and "train_time_s" not in written
     assert written["residual"] == "VSC3 + FF" and written["history"] == "ema" and written["validation_return"] == -3.5
+    assert written["residual_filter_s"] == 0.1
     with pytest.raises(ValueError, match="env_id"):
         PolicyCard(algo="SAC", env_id="SMAWarp-v9")
+    # A card written before the residual's filter existed reads as no filter; a filter is a
+    # time constant >= 0 s.
+    old = {k: v for k, v in written.items() if k != "residual_filter_s"}
+    assert PolicyCard.from_dict(old).residual_filter_s == 0.0
+    for bad in (-0.1, float("inf"), "0.1"):
+        with pytest.raises(ValueError, match="residual_filter_s = .*time constant >= 0 s"):
+            PolicyCard.from_dict({**old, "residual_filter_s": bad})

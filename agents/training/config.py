@@ -14,12 +14,14 @@ from __future__ import annotations
 
 import argparse
 import ast
+import math
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
-from sma_gym_agents.card import ALLOCATIONS, CARD_SUFFIX, HISTORIES, PolicyCard
+from sma_gym_agents.card import ALLOCATIONS, CARD_SUFFIX, PolicyCard
 from sma_gym_agents.controllers import ALL_SPECS, spec_by_label
+from sma_gym_agents.history import HISTORIES
 
 ROOT = Path(__file__).resolve().parents[2]
 """The repository: ``train.py``, ``hyperparams/`` and the default ``runs/`` live here."""
@@ -89,11 +91,22 @@ def literal_kwargs(text: str | dict[str, Any], key: str) -> dict[str, Any]:
     raise ValueError(f"{key} = {text!r}: train.py reads dict(name=literal, ...) or a mapping of literals")
 
 
-def agent_features(wrappers: Any) -> tuple[str, str | None, float, str]:
-    """``(history, residual, residual_scale, residual_allocation)`` from a zoo
-    ``vec_env_wrapper`` value: our residual wrapper (optional) then our history wrapper
-    (optional), nothing else; or the bank's wrapper alone (its ``allocation``: how a residual
-    bank agent's base grants an overrun shared budget, :data:`sma_gym_agents.card.ALLOCATIONS`)."""
+class AgentFeatures(NamedTuple):
+    """What a zoo ``vec_env_wrapper`` value makes of the agent's view (:func:`agent_features`)."""
+
+    history: str
+    residual: str | None
+    residual_scale: float
+    residual_allocation: str
+    residual_filter_s: float
+
+
+def agent_features(wrappers: Any) -> AgentFeatures:
+    """The agent's view from a zoo ``vec_env_wrapper`` value: our residual wrapper (optional;
+    keyword arguments ``base``, ``scale``, ``filter_s``) then our history wrapper (optional;
+    ``error_features: true`` for history ``"ema+error"``), nothing else; or the bank's wrapper
+    alone (its ``allocation``: how a residual bank agent's base grants an overrun shared
+    budget, :data:`sma_gym_agents.card.ALLOCATIONS`)."""
     items = [] if wrappers is None else wrappers if isinstance(wrappers, list) else [wrappers]
     parsed = [(next(iter(w)), dict(next(iter(w.values())) or {})) if isinstance(w, dict) else (w, {}) for w in items]
     names = [name for name, _ in parsed]
@@ -113,7 +126,7 @@ def agent_features(wrappers: Any) -> tuple[str, str | None, float, str]:
             raise ValueError(f"{BANK_WRAPPER} allocation = {allocation!r}: expected one of {ALLOCATIONS}")
         base = bank.get("base")
         scale = float(bank.get("scale", DEFAULT_RESIDUAL_SCALE))
-        return "none", None if base is None else str(base), scale, allocation
+        return AgentFeatures("none", None if base is None else str(base), scale, allocation, 0.0)
     if names not in ([], [RESIDUAL_WRAPPER], [HISTORY_WRAPPER], [RESIDUAL_WRAPPER, HISTORY_WRAPPER]):
         # train.py rebuilds the agent's view at evaluation (sma_gym_agents.trained.AgentPolicy), which
         # knows these two features in this order only.
@@ -122,17 +135,19 @@ def agent_features(wrappers: Any) -> tuple[str, str | None, float, str]:
         )
     kwargs = dict(parsed)
     residual = kwargs.get(RESIDUAL_WRAPPER)
-    if residual is not None and set(residual) - {"base", "scale"}:
-        raise ValueError(f"{RESIDUAL_WRAPPER} {residual}: expected the keyword arguments base and scale")
-    if kwargs.get(HISTORY_WRAPPER):
-        raise ValueError(f"{HISTORY_WRAPPER} {kwargs[HISTORY_WRAPPER]}: takes no keyword arguments")
+    if residual is not None and set(residual) - {"base", "scale", "filter_s"}:
+        raise ValueError(f"{RESIDUAL_WRAPPER} {residual}: expected the keyword arguments base, scale and filter_s")
+    history = kwargs.get(HISTORY_WRAPPER)
+    if history and (set(history) - {"error_features"} or not isinstance(history.get("error_features"), bool)):
+        raise ValueError(f"{HISTORY_WRAPPER} {history}: expected no keyword arguments or error_features: true/false")
     if residual is not None and "base" not in residual:
         raise ValueError(f"{RESIDUAL_WRAPPER}: expected a base controller (base: VSC3 + FF)")
-    return (
-        "ema" if HISTORY_WRAPPER in kwargs else "none",
+    return AgentFeatures(
+        "none" if HISTORY_WRAPPER not in kwargs else "ema+error" if (history or {}).get("error_features") else "ema",
         None if residual is None else str(residual["base"]),
         DEFAULT_RESIDUAL_SCALE if residual is None else float(residual.get("scale", DEFAULT_RESIDUAL_SCALE)),
         "proportional",
+        0.0 if residual is None else float(residual.get("filter_s", 0.0)),
     )
 
 
@@ -286,7 +301,7 @@ class RunConfig:
     n_envs: int
     frame_stack: int
     history: str
-    """``"none"`` or ``"ema"`` (:mod:`sma_gym_agents.history`)."""
+    """One of :data:`sma_gym_agents.history.HISTORIES` (:mod:`sma_gym_agents.history`)."""
     residual: str | None
     """Label of the controller the agent corrects (:mod:`sma_gym_agents.residual`), or None."""
     residual_scale: float
@@ -301,6 +316,8 @@ class RunConfig:
     quick: bool
     residual_allocation: str = "proportional"
     """How a residual bank agent's base grants an overrun shared budget (:data:`ALLOCATIONS`)."""
+    residual_filter_s: float = 0.0
+    """Time constant of the low-pass the residual's correction passes [s] (0: none)."""
     model_kwargs: dict[str, Any] = field(default_factory=dict)
     """Keyword arguments of the stable-baselines3 algorithm (``policy`` included if set)."""
 
@@ -319,7 +336,7 @@ class RunConfig:
         model_kwargs = {k: v for k, v in table.items() if k not in _RUN_KEYS}
         if "policy_kwargs" in model_kwargs:
             model_kwargs["policy_kwargs"] = literal_kwargs(model_kwargs["policy_kwargs"], "policy_kwargs")
-        history, file_residual, residual_scale, allocation = agent_features(table.get("vec_env_wrapper"))
+        features = agent_features(table.get("vec_env_wrapper"))
         if (args.env == BANK_ENV) != (BANK_WRAPPER in str(table.get("vec_env_wrapper"))):
             raise ValueError(
                 f"{hyperparams_path(algo).name} [{args.env}]: {BANK_ENV} trains through vec_env_wrapper "
@@ -332,16 +349,16 @@ class RunConfig:
             model_kwargs.update(
                 {"learning_starts": 200, "buffer_size": 10_000} if algo == "sac" else {"n_steps": 64, "batch_size": 64}
             )
-        residual = (None if args.residual == "none" else args.residual) if args.residual else file_residual
+        residual = (None if args.residual == "none" else args.residual) if args.residual else features.residual
         run = cls(
             env_id=args.env,
             algo=algo,
             timesteps=timesteps,
             n_envs=int(table.get("n_envs", 1) if args.n_envs is None else args.n_envs),
             frame_stack=int(table.get("frame_stack", 1) if args.frame_stack is None else args.frame_stack),
-            history=args.history or history,
+            history=args.history or features.history,
             residual=residual,
-            residual_scale=residual_scale,
+            residual_scale=features.residual_scale,
             eval_freq=eval_freq,
             env_kwargs={**table.get("env_kwargs", {}), **env_kwargs_option(args.env_kwargs)},
             seed=args.seed,
@@ -349,7 +366,8 @@ class RunConfig:
             threads=args.threads,
             quick=args.quick,
             model_kwargs=model_kwargs,
-            residual_allocation=allocation,
+            residual_allocation=features.residual_allocation,
+            residual_filter_s=features.residual_filter_s if residual is not None else 0.0,
         )
         return run.checked()
 
@@ -376,7 +394,7 @@ class RunConfig:
                 "expected --history none --frame-stack 1"
             )
         if self.history not in HISTORIES:
-            raise ValueError(f"history = {self.history!r}: expected 'none' or 'ema'")
+            raise ValueError(f"history = {self.history!r}: expected one of {HISTORIES}")
         residual = self.residual
         if residual is not None:
             try:
@@ -387,6 +405,10 @@ class RunConfig:
                 ) from err
         if not 0.0 < self.residual_scale <= 1.0:
             raise ValueError(f"residual_scale = {self.residual_scale}: expected a fraction of full duty in (0, 1]")
+        if not (math.isfinite(self.residual_filter_s) and self.residual_filter_s >= 0.0):
+            raise ValueError(
+                f"residual filter_s = {self.residual_filter_s}: expected a time constant >= 0 s (0: no filter)"
+            )
         if self.residual_allocation not in ALLOCATIONS:
             raise ValueError(f"residual_allocation = {self.residual_allocation!r}: expected one of {ALLOCATIONS}")
         return self if residual == self.residual else replace(self, residual=residual)
@@ -406,6 +428,7 @@ class RunConfig:
             history=self.history,
             residual=self.residual,
             residual_scale=self.residual_scale,
+            residual_filter_s=self.residual_filter_s,
             residual_allocation=self.residual_allocation,
             seed=self.seed,
             **progress,

@@ -42,12 +42,13 @@ class ResidualVecEnv(VecEnvWrapper):
     """SB3 VecEnv wrapper (raw sma_gym observations): the agent acts as a residual.
 
     ``base``: the label of the controller whose duty the agent corrects (``"VSC3 + FF"``);
-    ``scale``: the largest correction, as a fraction of full duty. RL Zoo's
-    ``vec_env_wrapper`` calls it as ``ResidualVecEnv(venv, base=..., scale=...)``.
+    ``scale``: the largest correction, as a fraction of full duty; ``filter_s``: the time
+    constant of the low-pass the correction passes (0: none). RL Zoo's ``vec_env_wrapper``
+    calls it as ``ResidualVecEnv(venv, base=..., scale=..., filter_s=...)``.
     """
 
-    def __init__(self, venv: VecEnv, base: str, scale: float = 0.5):
-        self.residual = ResidualStep(venv, base, scale)
+    def __init__(self, venv: VecEnv, base: str, scale: float = 0.5, filter_s: float = 0.0):
+        self.residual = ResidualStep(venv, base, scale, filter_s)
         super().__init__(venv, observation_space=ResidualStep.observation_space(venv.observation_space))
 
     def reset(self):
@@ -74,14 +75,17 @@ class HistoryVecEnv(VecEnvWrapper):
     """SB3 VecEnv wrapper appending :class:`HistoryFeatures` to the observations.
 
     Without ``history`` the features are built for ``venv``'s envs (their feature names
-    and control period): the form RL Zoo's ``vec_env_wrapper`` calls,
-    ``HistoryVecEnv(venv)``.
+    and control period), with the fine error features if ``error_features``: the form RL
+    Zoo's ``vec_env_wrapper`` calls, ``HistoryVecEnv(venv, error_features=...)``.
     """
 
-    def __init__(self, venv: VecEnv, history: HistoryFeatures | None = None):
+    def __init__(self, venv: VecEnv, history: HistoryFeatures | None = None, error_features: bool = False):
         if history is None:
             history = HistoryFeatures(
-                venv.num_envs, tuple(env_attr(venv, "feature_names")), float(env_attr(venv, "control_period_s"))
+                venv.num_envs,
+                tuple(env_attr(venv, "feature_names")),
+                float(env_attr(venv, "control_period_s")),
+                error_features=error_features,
             )
         if history.n != venv.num_envs:
             raise ValueError(
@@ -237,13 +241,14 @@ def agent_view(
     history: str,
     residual: str | None,
     residual_scale: float,
+    residual_filter_s: float = 0.0,
 ) -> VecEnv:
     """What the agent sees and does on top of the env: residual base controller, history
     features, frame stack (the order :class:`sma_gym_agents.trained.AgentPolicy` rebuilds)."""
     if residual is not None:
-        venv = ResidualVecEnv(venv, residual, residual_scale)
-    if history == "ema":
-        venv = HistoryVecEnv(venv, HistoryFeatures.for_env(venv.num_envs, env_id, env_kwargs))
+        venv = ResidualVecEnv(venv, residual, residual_scale, residual_filter_s)
+    if history != "none":
+        venv = HistoryVecEnv(venv, HistoryFeatures.for_env(venv.num_envs, env_id, env_kwargs, history))
     if frame_stack > 1:
         venv = VecFrameStack(venv, frame_stack)
     return venv
@@ -260,6 +265,7 @@ def make_vec_env(
     residual_scale: float = 0.5,
     max_episode_steps: int | None = None,
     allocation: str = "proportional",
+    residual_filter_s: float = 0.0,
 ) -> VecEnv:
     """SB3 VecEnv: the native vector env where the id has one, with a monitor and the agent view
     (the multiplexed bank: ``n_envs`` banks, each actuator a sub-env, :class:`BankVecEnv`)."""
@@ -283,7 +289,7 @@ def make_vec_env(
         )
     else:
         venv = VecMonitor(DummyVecEnv([lambda: gym.make("sma_gym:" + env_id, **kwargs)] * n_envs))
-    venv = agent_view(venv, env_id, kwargs, frame_stack, history, residual, residual_scale)
+    venv = agent_view(venv, env_id, kwargs, frame_stack, history, residual, residual_scale, residual_filter_s)
     venv.seed(seed)
     return venv
 
@@ -300,6 +306,7 @@ def make_training_env(run: RunConfig) -> VecEnv:
         run.residual,
         run.residual_scale,
         allocation=run.residual_allocation,
+        residual_filter_s=run.residual_filter_s,
     )
 
 
@@ -353,6 +360,7 @@ def make_validation_env(run: RunConfig, references: list[dict[str, Any]]) -> Vec
         run.history,
         run.residual,
         run.residual_scale,
+        run.residual_filter_s,
     )
     venv.seed(VALIDATION_SEED)
     return venv

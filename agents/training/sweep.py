@@ -20,6 +20,7 @@ kept and only the others run; ``--seeds`` larger than before extends a finished 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import subprocess
@@ -261,6 +262,13 @@ def provenance_line(sources: dict[int, dict[str, Any] | None]) -> str:
     return f"Code: **the seeds did not all run the same code** ({parts}); compare them only if the model is the same."
 
 
+def _field_defaults() -> dict[str, Any]:
+    """RunConfig's fields that have a plain default, as ``run.json`` would record them: what a
+    ``run.json`` written before such a field existed meant by leaving it out."""
+    plain = {f.name: f.default for f in dataclasses.fields(RunConfig) if f.default is not dataclasses.MISSING}
+    return _as_recorded(plain)
+
+
 def _as_recorded(config: dict[str, Any]) -> dict[str, Any]:
     """A configuration as ``run.json`` holds it once read back (tuples as lists, ...)."""
     return json.loads(json.dumps(config, default=str))
@@ -279,7 +287,8 @@ def finished_seeds(run: RunConfig, seeds: list[int], out: Path) -> list[int]:
         if not record.is_file():
             continue
         try:
-            recorded = {**json.loads(record.read_text()), "seed": None}
+            # A field added since that run was written (residual_filter_s) had its default then.
+            recorded = {**_field_defaults(), **json.loads(record.read_text()), "seed": None}
         except (OSError, json.JSONDecodeError) as err:
             raise ValueError(f"--resume: {record}: not readable as a run's configuration ({err})") from None
         differs = sorted(k for k in expected.keys() | recorded.keys() if expected.get(k) != recorded.get(k))
