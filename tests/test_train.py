@@ -78,6 +78,15 @@ def test_train_rejects_bad_options(option, named):
     assert proc.returncode == 2 and named in proc.stderr
 
 
+def test_error_features_without_a_position_sensor_are_refused_before_anything_is_written(tmp_path):
+    out = tmp_path / "run"
+    proc = _run(
+        str(ROOT / "train.py"), "--env", "SMASelfSensing-v0", "--history", "ema+error", "--quick", "--out", str(out)
+    )
+    assert proc.returncode == 2 and "no 'error'" in proc.stderr and "expected history 'ema'" in proc.stderr
+    assert not out.exists()
+
+
 def test_progress_lines_report_steps_rate_and_time_left():
     """Without a terminal (CI, nohup, cluster logs) train.py prints these instead of a bar."""
     from sma_gym_agents.training.learn import progress_line

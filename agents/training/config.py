@@ -21,7 +21,7 @@ from typing import Any, NamedTuple
 
 from sma_gym_agents.card import ALLOCATIONS, CARD_SUFFIX, PolicyCard
 from sma_gym_agents.controllers import ALL_SPECS, spec_by_label
-from sma_gym_agents.history import HISTORIES
+from sma_gym_agents.history import HISTORIES, HistoryFeatures
 
 ROOT = Path(__file__).resolve().parents[2]
 """The repository: ``train.py``, ``hyperparams/`` and the default ``runs/`` live here."""
@@ -395,6 +395,10 @@ class RunConfig:
             )
         if self.history not in HISTORIES:
             raise ValueError(f"history = {self.history!r}: expected one of {HISTORIES}")
+        if self.history == "ema+error":
+            # Built once here, so an env without a position sensor is refused before a run
+            # folder or run.json exists.
+            HistoryFeatures.for_env(1, self.env_id, self.env_kwargs, self.history)
         residual = self.residual
         if residual is not None:
             try:
