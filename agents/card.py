@@ -65,6 +65,15 @@ def _is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+FILTER_S_EXPECTED = "a time constant >= 0 s (0: no filter)"
+"""What a residual's low-pass time constant ``filter_s`` may be (card, run, ResidualStep)."""
+
+
+def is_filter_time_constant(value: Any) -> bool:
+    """True for a residual low-pass time constant: a finite number >= 0 s (0: no filter)."""
+    return _is_number(value) and math.isfinite(value) and value >= 0.0
+
+
 def _problems(values: Mapping[str, Any]) -> list[tuple[str, str]]:
     """``(field, expected)`` for every field of ``values`` that a card cannot hold."""
     checks: tuple[tuple[str, bool, str], ...] = (
@@ -84,13 +93,7 @@ def _problems(values: Mapping[str, Any]) -> list[tuple[str, str]]:
             _is_number(values.get("residual_scale", 0.5)) and 0.0 < values.get("residual_scale", 0.5) <= 1.0,
             "a number in (0, 1]",
         ),
-        (
-            "residual_filter_s",
-            _is_number(values.get("residual_filter_s", 0.0))
-            and math.isfinite(values.get("residual_filter_s", 0.0))
-            and values.get("residual_filter_s", 0.0) >= 0.0,
-            "a time constant >= 0 s (0: no filter)",
-        ),
+        ("residual_filter_s", is_filter_time_constant(values.get("residual_filter_s", 0.0)), FILTER_S_EXPECTED),
         (
             "residual_allocation",
             values.get("residual_allocation", "proportional") in ALLOCATIONS,

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from sma_gym_agents.card import FILTER_S_EXPECTED, is_filter_time_constant
 from sma_gym_agents.policies import ControllerPolicy, SelfSensingPolicy, env_attr
 
 
@@ -53,8 +54,8 @@ class ResidualStep:
             self.policy = SelfSensingPolicy(base, env)
         self.scale = float(scale)
         self.filter_s = float(filter_s)
-        if not (math.isfinite(self.filter_s) and self.filter_s >= 0.0):
-            raise ValueError(f"residual filter_s = {filter_s!r}: expected a time constant >= 0 s (0: no filter)")
+        if not is_filter_time_constant(self.filter_s):
+            raise ValueError(f"residual filter_s = {filter_s!r}: expected {FILTER_S_EXPECTED}")
         dt = float(env_attr(env, "control_period_s"))
         self.beta = 1.0 - math.exp(-dt / self.filter_s) if self.filter_s > 0.0 else 1.0
         """Weight of the new correction in the filtered one (1: no filter)."""

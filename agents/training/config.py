@@ -14,12 +14,11 @@ from __future__ import annotations
 
 import argparse
 import ast
-import math
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from sma_gym_agents.card import ALLOCATIONS, CARD_SUFFIX, PolicyCard
+from sma_gym_agents.card import ALLOCATIONS, CARD_SUFFIX, FILTER_S_EXPECTED, PolicyCard, is_filter_time_constant
 from sma_gym_agents.controllers import ALL_SPECS, spec_by_label
 from sma_gym_agents.history import HISTORIES, HistoryFeatures
 
@@ -409,10 +408,8 @@ class RunConfig:
                 ) from err
         if not 0.0 < self.residual_scale <= 1.0:
             raise ValueError(f"residual_scale = {self.residual_scale}: expected a fraction of full duty in (0, 1]")
-        if not (math.isfinite(self.residual_filter_s) and self.residual_filter_s >= 0.0):
-            raise ValueError(
-                f"residual filter_s = {self.residual_filter_s}: expected a time constant >= 0 s (0: no filter)"
-            )
+        if not is_filter_time_constant(self.residual_filter_s):
+            raise ValueError(f"residual filter_s = {self.residual_filter_s}: expected {FILTER_S_EXPECTED}")
         if self.residual_allocation not in ALLOCATIONS:
             raise ValueError(f"residual_allocation = {self.residual_allocation!r}: expected one of {ALLOCATIONS}")
         return self if residual == self.residual else replace(self, residual=residual)
