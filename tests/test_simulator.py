@@ -197,6 +197,32 @@ def test_the_hysterons_span_the_spread_and_keep_heating_above_cooling():
         hysteron_nodes(6.0, 1.0, 15.0, law="duhem")
 
 
+@pytest.mark.parametrize("count", [7, 11])
+def test_the_nominal_pairing_gives_the_coldest_hysteron_the_narrowest_loop(count):
+    """'narrow-cold': the loop width grows with the centre; 'uncorrelated' keeps the same
+    widths and centres, only paired differently (rank correlation near zero)."""
+    from scipy.stats import spearmanr
+
+    from sma_gym.physics.transformation import hysteron_nodes
+
+    def centres_and_widths(pairing: str) -> tuple[np.ndarray, np.ndarray]:
+        shift_h, shift_c, _, _ = hysteron_nodes(6.0, 1.0, 15.0, branch_range_k=35.0, max_nodes=count, pairing=pairing)
+        h, c = np.array(shift_h), np.array(shift_c)
+        return (h + c) / 2, 15.0 - (c - h)  # width = full loop minus the narrowing
+
+    centres, widths = centres_and_widths("narrow-cold")
+    assert np.all(np.diff(centres) > 0) and np.all(np.diff(widths) > 0)
+    assert widths[0] < 1.5 and widths[-1] > 13.5  # 1.1 K and 13.9 K with 7 hysterons
+    other_centres, other_widths = centres_and_widths("uncorrelated")
+    np.testing.assert_allclose(other_centres, centres)
+    np.testing.assert_allclose(np.sort(other_widths), widths)
+    assert abs(spearmanr(other_centres, other_widths).statistic) < 0.3
+    with pytest.raises(ValueError, match="width pairing"):
+        hysteron_nodes(6.0, 1.0, 15.0, pairing="narrow-hot")
+    with pytest.raises(ValueError, match="Wire.hysteron_width_pairing"):
+        ModelConfig(preset("standard")).with_actuator(**{"wire.hysteron_width_pairing": "random"})
+
+
 @pytest.mark.parametrize("law", ["play", "preisach"])
 def test_a_wide_spread_on_narrow_branches_is_smooth_and_keeps_mean_and_variance(law):
     """A 0.5 mm HT wire's 10 K branches with a 12 K spread: a few discrete hysterons would

@@ -30,7 +30,10 @@ branch by ``shift_c``. The set of hysterons is a discrete Preisach density
   and the loop widths are spread from the full major-loop width down to nearly zero. The
   narrow hysterons start back almost at once after a reversal, the wide ones later, so a
   reversal is followed by motion within about a kelvin, as in real wires (and in the
-  report's own rescaled-cosine law), and the major loop gets rounded corners.
+  report's own rescaled-cosine law), and the major loop gets rounded corners. The widths
+  grow with the centres (``Wire.hysteron_width_pairing = "narrow-cold"``): a reversal in
+  the cold, martensite-rich part of the loop is followed at once, one in the hot part only
+  after a few kelvin of cooling.
 * ``play`` (the model of sma-gym 0.1): every hysteron has the full width, so after a
   reversal the wire crosses the whole 15 K hysteresis before it moves.
 
@@ -86,10 +89,31 @@ def cosine_fraction_slope(u: float) -> float:
 MINOR_LOOP_LAWS = ("preisach", "play")
 """Names of the hysteresis laws (see the module docstring)."""
 
-# Which width quantile each centre gets (Latin-hypercube pairing of 7 hysterons): centre
-# and width uncorrelated (rank correlation -0.07), the narrowest hysteron near the middle of
-# the transformation, where closed-loop reversals happen.
+WIDTH_PAIRINGS = ("narrow-cold", "uncorrelated")
+"""How the hysterons' loop widths are paired with their centres (see :func:`hysteron_nodes`)."""
+
+# "uncorrelated" (sma-gym before 2026-11-25): which width quantile each centre gets, a
+# Latin-hypercube pairing of 7 hysterons (rank correlation -0.07), the narrowest hysteron
+# near the middle of the transformation.
 _WIDTH_RANK_7 = (3, 6, 0, 2, 5, 1, 4)
+
+
+def _width_ranks(n: int, pairing: str) -> tuple[int, ...]:
+    """Rank of each hysteron's narrowing (0: the least narrowed, i.e. the widest), coldest first."""
+    if pairing == "narrow-cold":
+        return tuple(range(n - 1, -1, -1))
+    if n == 7:
+        return _WIDTH_RANK_7
+
+    # Another count: of the permutations k -> (a k + b) mod n with a stride a other than
+    # +-1 (those are a rotated monotone pairing), the one least rank-correlated with the
+    # centres' order (a Latin-hypercube pairing).
+    def correlation(ranks: tuple[int, ...]) -> float:
+        return abs(sum((k - (n - 1) / 2) * (r - (n - 1) / 2) for k, r in enumerate(ranks)))
+
+    strides = [a for a in range(2, n - 1) if math.gcd(a, n) == 1] or list(range(1, max(n, 2)))
+    candidates = [tuple((a * k + b) % n for k in range(n)) for a in strides for b in range(n)]
+    return min(candidates, key=correlation)
 
 
 # The hysteron workspace of the compiled step: one row per quantity, one column per
@@ -118,6 +142,7 @@ def hysteron_nodes(
     centre_form: str = "default",
     max_nodes: int = 7,
     branch_range_k: float = math.inf,
+    pairing: str = "narrow-cold",
 ) -> tuple[list[float], list[float], list[float], float]:
     """Hysterons of the transformation: ``(shift_h, shift_c, weights, widening_k)``.
 
@@ -131,7 +156,11 @@ def hysteron_nodes(
     ``max_nodes`` equally weighted hysterons (one when there is neither spread nor width
     spread, so the simplest model costs nothing extra) whose centres are the distribution's
     quantiles (rescaled to the exact std); with the ``preisach`` law their widths are the
-    uniform quantiles, paired Latin-hypercube fashion, with the ``play`` law all are full.
+    uniform quantiles, with the ``play`` law all are full. ``pairing`` (one of
+    :data:`WIDTH_PAIRINGS`) says which centre gets which width: ``narrow-cold`` (nominal)
+    makes the width grow with the centre, so the hysterons that transform coldest have the
+    narrowest loops and the hottest the widest; ``uncorrelated`` pairs them Latin-hypercube
+    fashion (sma-gym before 2026-11-25). See ``Wire.hysteron_width_pairing`` for why.
 
     ``branch_range_k`` [K] is the temperature range of one branch's cosine (min(A_f - A_s,
     M_s - M_f)). A few discrete centres further apart than about half that range would turn
@@ -144,6 +173,8 @@ def hysteron_nodes(
     """
     if law not in MINOR_LOOP_LAWS:
         raise ValueError(f"minor-loop law = {law!r}: expected one of {MINOR_LOOP_LAWS}")
+    if pairing not in WIDTH_PAIRINGS:
+        raise ValueError(f"hysteron width pairing = {pairing!r}: expected one of {WIDTH_PAIRINGS}")
     if spread_k == 0.0 and (law == "play" or width_spread == 0.0):
         return [0.0], [0.0], [1.0], 0.0
     n = max_nodes
@@ -154,7 +185,7 @@ def hysteron_nodes(
         std = math.sqrt(sum(r * r for r in raw) / n)
         centres = [spread_k * r / std for r in raw]
     centres, widening_k = _smooth_centres(centres, spread_k, branch_range_k)
-    ranks = _WIDTH_RANK_7 if n == 7 else tuple(range(n))
+    ranks = _width_ranks(n, pairing)
     width = 0.0 if law == "play" else width_spread
     shift_h, shift_c = [], []
     for k in range(n):
