@@ -151,6 +151,33 @@ def test_nominal_law_moves_back_within_a_few_kelvin_of_a_reversal_and_never_jump
     assert xi[-1] > xi[k] + 0.3
 
 
+NARROW_COLD = ModelConfig(preset("standard")).with_actuator(**{"wire.hysteron_width_pairing": "narrow-cold"})
+
+
+def _recovered_below_the_peak(model, heating_ms: int, kelvin: float) -> tuple[float, float]:
+    """Heat at full duty for ``heating_ms``, then cool: (xi at the peak, xi gained ``kelvin``
+    below the peak effective temperature)."""
+    _, out = run(model, duty=np.r_[np.ones(heating_ms), np.zeros(6000)])
+    xi = out["martensite_fraction"][:, 0]
+    te = effective_temperature(out)
+    k = int(np.argmax(te))
+    return float(xi[k]), float(xi[k + int(np.argmax(te[k:] < te[k] - kelvin))] - xi[k])
+
+
+@pytest.mark.parametrize(
+    ("model", "hot_lags"), [("standard", False), (NARROW_COLD, True)], ids=["uncorrelated", "narrow-cold"]
+)
+def test_a_hot_reversal_lags_longer_than_a_cold_one_only_with_the_narrow_cold_pairing(model, hot_lags):
+    """Reversed with little austenite formed, the wire starts back within 2 K either way;
+    reversed nearly transformed, the nominal (uncorrelated) wire has moved back measurably
+    3 K below the peak, the narrow-cold one (the hottest hysterons the widest) barely."""
+    cold_peak, cold_gain = _recovered_below_the_peak(model, 250, 2.0)
+    hot_peak, hot_gain = _recovered_below_the_peak(model, 400, 3.0)
+    assert cold_peak > 0.8 and hot_peak < 0.4
+    assert cold_gain > 0.004
+    assert (hot_gain < 0.001) if hot_lags else (hot_gain > 0.004)
+
+
 @pytest.mark.parametrize("model", ["standard", PLAY], ids=["preisach", "play"])
 def test_minor_loops_close_return_point_memory(model):
     """Heat to a reversal point, cool a few kelvin, re-heat past it: on the way back the

@@ -30,10 +30,10 @@ branch by ``shift_c``. The set of hysterons is a discrete Preisach density
   and the loop widths are spread from the full major-loop width down to nearly zero. The
   narrow hysterons start back almost at once after a reversal, the wide ones later, so a
   reversal is followed by motion within about a kelvin, as in real wires (and in the
-  report's own rescaled-cosine law), and the major loop gets rounded corners. The widths
-  grow with the centres (``Wire.hysteron_width_pairing = "narrow-cold"``): a reversal in
-  the cold, martensite-rich part of the loop is followed at once, one in the hot part only
-  after a few kelvin of cooling.
+  report's own rescaled-cosine law), and the major loop gets rounded corners. Widths and
+  centres are paired uncorrelated; the ``narrow-cold`` option (``Wire.hysteron_width_pairing``)
+  lets the width grow with the centre, so a reversal in the hot, austenite-rich part of
+  the loop is followed only after a few kelvin of cooling.
 * ``play`` (the model of sma-gym 0.1): every hysteron has the full width, so after a
   reversal the wire crosses the whole 15 K hysteresis before it moves.
 
@@ -89,12 +89,12 @@ def cosine_fraction_slope(u: float) -> float:
 MINOR_LOOP_LAWS = ("preisach", "play")
 """Names of the hysteresis laws (see the module docstring)."""
 
-WIDTH_PAIRINGS = ("narrow-cold", "uncorrelated")
+WIDTH_PAIRINGS = ("uncorrelated", "narrow-cold")
 """How the hysterons' loop widths are paired with their centres (see :func:`hysteron_nodes`)."""
 
-# "uncorrelated" (sma-gym before 2026-11-25): which width quantile each centre gets, a
-# Latin-hypercube pairing of 7 hysterons (rank correlation -0.07), the narrowest hysteron
-# near the middle of the transformation.
+# "uncorrelated": which width quantile each centre gets, a Latin-hypercube pairing of 7
+# hysterons (rank correlation -0.07), the narrowest hysteron near the middle of the
+# transformation.
 _WIDTH_RANK_7 = (3, 6, 0, 2, 5, 1, 4)
 
 
@@ -142,7 +142,7 @@ def hysteron_nodes(
     centre_form: str = "default",
     max_nodes: int = 7,
     branch_range_k: float = math.inf,
-    pairing: str = "narrow-cold",
+    pairing: str = "uncorrelated",
 ) -> tuple[list[float], list[float], list[float], float]:
     """Hysterons of the transformation: ``(shift_h, shift_c, weights, widening_k)``.
 
@@ -157,10 +157,10 @@ def hysteron_nodes(
     spread, so the simplest model costs nothing extra) whose centres are the distribution's
     quantiles (rescaled to the exact std); with the ``preisach`` law their widths are the
     uniform quantiles, with the ``play`` law all are full. ``pairing`` (one of
-    :data:`WIDTH_PAIRINGS`) says which centre gets which width: ``narrow-cold`` (nominal)
-    makes the width grow with the centre, so the hysterons that transform coldest have the
-    narrowest loops and the hottest the widest; ``uncorrelated`` pairs them Latin-hypercube
-    fashion (sma-gym before 2026-11-25). See ``Wire.hysteron_width_pairing`` for why.
+    :data:`WIDTH_PAIRINGS`) says which centre gets which width: ``uncorrelated`` (nominal)
+    pairs them Latin-hypercube fashion; ``narrow-cold`` makes the width grow with the
+    centre, so the hysterons that transform coldest have the narrowest loops and the hottest
+    the widest. See ``Wire.hysteron_width_pairing`` for what each was measured to do.
 
     ``branch_range_k`` [K] is the temperature range of one branch's cosine (min(A_f - A_s,
     M_s - M_f)). A few discrete centres further apart than about half that range would turn
