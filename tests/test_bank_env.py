@@ -24,11 +24,13 @@ RECORDED_MODEL = ModelConfig(
             "wire.thermal_expansion_martensite_1_k": 8.8e-6,
             "convection.h0_w_m2_k": 80.36,
             "wire.resistivity_austenite_ohm_m": 7.784e-7,
+            "wire.transformation_spread_k": 6.0,
         }
     )
 )
 """The standard actuator as it was when the golden values below were recorded: one expansion
-coefficient for both phases, and h0 and rho_A as calibrated for it."""
+coefficient for both phases, the 6 K spread of transformation temperatures, and h0 and rho_A
+as calibrated for them."""
 
 
 def test_fixed_slots_are_bit_for_bit_what_they_were_before_the_shared_budget():

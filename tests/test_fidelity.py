@@ -20,7 +20,7 @@ from sma_gym.report_targets import TOLERANCES, load_targets, parse_report_target
 from sma_gym_agents import report_targets as table
 from sma_gym_agents.evaluation import CHAPTER_8_CASES, Record, Results
 
-MIN_PASS_COUNT = 79
+MIN_PASS_COUNT = 82
 """Rows with status ``pass`` in the quick run of the current model (raise it, never lower it)."""
 
 SPEC = Path(__file__).resolve().parents[2] / "shared" / "spec" / "REPORT_TARGETS.md"

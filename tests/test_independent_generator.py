@@ -8,8 +8,9 @@ Four groups:
 3. each hidden effect changes the outputs it should, and only those;
 4. the generated traces round-trip through the project's CSV writer and loader.
 
-Measured differences between the two generators (standard preset, 10 V unless said;
-``python -m pytest tests/test_independent_generator.py`` re-measures them):
+Measured differences between the two generators (standard preset with the 6 K spread of
+transformation temperatures of before 2026-11-25, 10 V unless said; the nominal is 8 K now,
+and ``python -m pytest tests/test_independent_generator.py`` re-measures them):
 
 =============================================== ============ ============ ==========
 experiment                                      our kernel   independent  difference
@@ -33,7 +34,7 @@ widths over [0, 15 K] (``Wire.hysteron_width_spread = 1``), which moves the majo
 generator uses the published branches. Shifting its A_s and A_f by -3.75 K makes it hold
 4.91 mm at 0.06 (kernel 4.93). Near 5 mm the holding curve is steep (0.05 -> 0.07 duty
 spans 0.2 -> 8.6 mm), so 4 K of branch temperature is 2 mm of position: the T4 calibration
-of h0 (81.14) holds for our kernel's loop, and a model with the published branches would
+of h0 (81.14 then) holds for our kernel's loop, and a model with the published branches would
 need about 6 % more duty (or about 7 % less h0) to hold 5 mm. The logistic instead of
 Gaussian spread accounts for less than 0.1 mm of it.
 """

@@ -136,8 +136,8 @@ def test_play_law_reversal_crosses_the_whole_hysteresis_before_moving():
 
 def test_nominal_law_moves_back_within_a_few_kelvin_of_a_reversal_and_never_jumps():
     """The nominal (Preisach) law: after a reversal mid-transformation the narrow hysterons
-    start back at once, so xi has recovered measurably 2 K below the peak (the play law
-    needs 15 K) and keeps rising smoothly, with no jump."""
+    start back at once, so xi has recovered measurably 3 K below the peak (0.010 with the
+    8 K spread; the play law needs 15 K) and keeps rising smoothly, with no jump."""
     duty = np.r_[np.ones(330), np.zeros(6000)]
     _, out = run(duty=duty)
     xi = out["martensite_fraction"][:, 0]
@@ -145,8 +145,8 @@ def test_nominal_law_moves_back_within_a_few_kelvin_of_a_reversal_and_never_jump
     k = int(np.argmax(te))
     assert 0.2 < xi[k] < 0.8
     assert np.max(np.abs(np.diff(xi))) < 0.02
-    two_below = k + int(np.argmax(te[k:] < te[k] - 2.0))
-    assert xi[two_below] > xi[k] + 0.005
+    three_below = k + int(np.argmax(te[k:] < te[k] - 3.0))
+    assert xi[three_below] > xi[k] + 0.005
     assert np.all(np.diff(xi[k:]) >= -1e-12)  # cooling only ever adds martensite
     assert xi[-1] > xi[k] + 0.3
 
@@ -170,12 +170,14 @@ def _recovered_below_the_peak(model, heating_ms: int, kelvin: float) -> tuple[fl
 def test_a_hot_reversal_lags_longer_than_a_cold_one_only_with_the_narrow_cold_pairing(model, hot_lags):
     """Reversed with little austenite formed, the wire starts back within 2 K either way;
     reversed nearly transformed, the nominal (uncorrelated) wire has moved back measurably
-    3 K below the peak, the narrow-cold one (the hottest hysterons the widest) barely."""
+    4 K below the peak (0.009; the 8 K spread makes it lag longer than at a cold reversal,
+    as the report's sine does), the narrow-cold one (the hottest hysterons the widest)
+    barely (0.001)."""
     cold_peak, cold_gain = _recovered_below_the_peak(model, 250, 2.0)
-    hot_peak, hot_gain = _recovered_below_the_peak(model, 400, 3.0)
+    hot_peak, hot_gain = _recovered_below_the_peak(model, 400, 4.0)
     assert cold_peak > 0.8 and hot_peak < 0.4
     assert cold_gain > 0.004
-    assert (hot_gain < 0.001) if hot_lags else (hot_gain > 0.004)
+    assert (hot_gain < 0.002) if hot_lags else (hot_gain > 0.005)
 
 
 @pytest.mark.parametrize("model", ["standard", PLAY], ids=["preisach", "play"])
@@ -370,19 +372,26 @@ def test_the_cut_switches_where_the_position_crosses_it_not_at_a_substep_boundar
 def test_resolved_pwm_conducts_again_where_the_release_is_crossed_inside_a_pulse():
     """PWM-resolved: a wire latched by the cut conducts again from the instant its position
     falls below the release point if the PWM is in its pulse (the switch gates the MOSFET),
-    not from whenever the sub-step happens to end. Through the first three releases the
-    default is within 0.1 mm / 0.5 K of a 30 us reference (7.5 K at 20 V when the release
-    waited for the sub-step's end). Later the 20 V relay cycle drifts: its releases amplify
-    sub-micrometre differences, so the 30 us and a 10 us reference part too."""
+    not from whenever the sub-step happens to end. Through the first three releases, or
+    for as long as the 30 us and a 10 us reference agree, the default is within 0.1 mm /
+    0.5 K of the 30 us one (7.5 K at 20 V when the release waited for the sub-step's end).
+    The 20 V relay cycle amplifies sub-micrometre differences at each release, so there the
+    two references part after the first release (2.4 K by the second with the 8 K spread)
+    and no pointwise comparison measures the integrator beyond it."""
     bench = _integration_bench()
-    duty, rec, fine = bench.duty_sequence(1, 250), bench.RECORD, bench.REFERENCE_30US
+    duty, rec = bench.duty_sequence(1, 250), bench.RECORD
     for voltage in (10.0, 20.0):
         model = preset(f"supply-{voltage:g}v")
-        ref = Simulator(model, pwm_mode="resolved", **fine).run(duty, record=rec)
+        ref = Simulator(model, pwm_mode="resolved", **bench.REFERENCE_30US).run(duty, record=rec)
+        finer = Simulator(model, pwm_mode="resolved", **bench.REFERENCE_10US).run(duty, record=rec)
         out = Simulator(model, pwm_mode="resolved").run(duty, record=rec)
         releases = np.flatnonzero(np.diff(ref["end_of_travel_cut"][:, 0]) < 0)
         assert releases.size > 3
-        end = releases[3]
+        parted = (np.abs(finer["temperature_c"] - ref["temperature_c"])[:, 0] > 0.5 * bench.GOAL_K) | (
+            np.abs(finer["position_m"] - ref["position_m"])[:, 0] > 0.5 * bench.GOAL_M
+        )
+        end = min(releases[3], int(np.argmax(parted)) if parted.any() else len(duty))
+        assert end > releases[0] + 20  # the references agree past the first release at least
         dx = np.abs(out["position_m"] - ref["position_m"])[:end, 0]
         dt = np.abs(out["temperature_c"] - ref["temperature_c"])[:end, 0]
         assert dx.max() < bench.GOAL_M and dt.max() < bench.GOAL_K, (voltage, dx.max(), dt.max())

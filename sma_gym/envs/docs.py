@@ -113,7 +113,7 @@ MODEL_CHANGE = """
     * main (unreleased): **the dynamics changed under the same id.** The
       nominal wire is issue 11's (docs/model.md): Preisach-type minor loops whose hysteron
       widths are spread (the wire moves back within about a kelvin of a reversal, where
-      0.2's play law crossed the whole 15 K first), a 6 K spread of transformation
+      0.2's play law crossed the whole 15 K first), an 8 K spread of transformation
       temperatures, 24.2 J/g latent heat, each phase's own thermal expansion, h0 and the
       austenite resistivity recalibrated, and the end-of-travel cut integrated with a tighter
       bound in its switching band. Spaces, rewards and `info` are unchanged.
