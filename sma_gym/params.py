@@ -116,8 +116,8 @@ class Wire:
     10 V with 0.25 s blocks in 2 of 3 (1.0 K, the references agreeing within 0.02 K); 8 K
     keeps every row 6 K had there. The price is energy: every step efficiency falls by about
     5 % (15 V: 0.394 against 0.415 %; 5 of the 7 efficiencies of Tables 8.1/8.2 within
-    30 % at either spread). Wider still is worse: 16 K makes the wire too slow to extend in
-    the sine (cooling errors of -0.5 mm). Symmetric on purpose: a cooling branch spread
+    30 % at either spread). Wider still is worse (measured on an older model): 16 K makes the
+    wire too slow to extend in the sine (cooling errors of -0.5 mm). Symmetric on purpose: a cooling branch spread
     1.5-2x wider than the heating one (or narrower, or a lower M_f), each with h0 and rho_A
     recalibrated, was measured against the same rows (at 6 K) and every variant lost 3-12
     of them."""
