@@ -117,10 +117,10 @@ class Wire:
     keeps every row 6 K had there. The price is energy: every step efficiency falls by about
     5 % (15 V: 0.394 against 0.415 %; 5 of the 7 efficiencies of Tables 8.1/8.2 within
     30 % at either spread). Wider still is worse (measured on an older model): 16 K makes the
-    wire too slow to extend in the sine (cooling errors of -0.5 mm). Symmetric on purpose: a cooling branch spread
-    1.5-2x wider than the heating one (or narrower, or a lower M_f), each with h0 and rho_A
-    recalibrated, was measured against the same rows (at 6 K) and every variant lost 3-12
-    of them."""
+    wire too slow to extend in the sine (cooling errors of -0.5 mm). Symmetric on purpose:
+    a cooling branch spread 1.5-2x wider than the heating one (or narrower, or a lower
+    M_f), each with h0 and rho_A recalibrated, was measured against the same rows (at 6 K)
+    and every variant lost 3-12 of them."""
 
     hysteron_width_spread: float = 1.0
     """w [-] = 1.0: spread of the hysterons' loop widths, as a fraction of the major-loop
@@ -135,9 +135,10 @@ class Wire:
     ``"narrow-cold"`` lets the width grow with the centre temperature (the coldest
     hysteron 1.1 K wide, the hottest 13.9 K), so a reversal in the hot, austenite-rich part
     of the loop lags a few kelvin longer than one in the cold part. Measured as the nominal
-    model (2026-11-25, with the 6 K spread of then, h0 recalibrated to 81.42): the report's 0.1 Hz sine then lags about
-    twice as long after its top reversal as after its bottom one, as the report's does (PID
-    +0.057 / -0.096 mm against +0.061 / -0.097; uncorrelated +0.058 / -0.053), and ``sma-gym
+    model (2026-11-25, with the 6 K spread of then, h0 recalibrated to 81.42): the report's
+    0.1 Hz sine then lags about twice as long after its top reversal as after its bottom
+    one, as the report's does (PID +0.057 / -0.096 mm against +0.061 / -0.097; uncorrelated
+    +0.058 / -0.053), and ``sma-gym
     fidelity`` passes 82 rows instead of 79. Not adopted, because everything measured
     outside the report's rows went the other way: the real bench's twin re-identified with
     it fitted all four runs worse (0.54-0.86 against 0.39-0.72 mm RMS); the latched relay at

@@ -227,7 +227,7 @@ def test_the_hysterons_span_the_spread_and_keep_heating_above_cooling():
 
 
 @pytest.mark.parametrize("count", [7, 11])
-def test_the_nominal_pairing_gives_the_coldest_hysteron_the_narrowest_loop(count):
+def test_the_narrow_cold_pairing_gives_the_coldest_hysteron_the_narrowest_loop(count):
     """'narrow-cold': the loop width grows with the centre; 'uncorrelated' keeps the same
     widths and centres, only paired differently (rank correlation near zero)."""
     from scipy.stats import spearmanr
@@ -377,7 +377,11 @@ def test_resolved_pwm_conducts_again_where_the_release_is_crossed_inside_a_pulse
     0.5 K of the 30 us one (7.5 K at 20 V when the release waited for the sub-step's end).
     The 20 V relay cycle amplifies sub-micrometre differences at each release, so there the
     two references part after the first release (2.4 K by the second with the 8 K spread)
-    and no pointwise comparison measures the integrator beyond it."""
+    and no pointwise comparison measures the integrator beyond it. Known weakness (measured
+    2026-11-25): with the release's location inside a pulse switched off in the kernel
+    (``drive = False`` when resolved) this test still passes, at 6 K as at 8 K (0.04-0.1 K
+    from the reference), so it guards the in-pulse release only against a larger error
+    than that one."""
     bench = _integration_bench()
     duty, rec = bench.duty_sequence(1, 250), bench.RECORD
     for voltage in (10.0, 20.0):
