@@ -122,6 +122,27 @@ def test_disputed_rows_print_their_argument(result, capsys):
         assert r.argument in text
 
 
+def test_the_efficiency_dispute_follows_from_the_reports_rows():
+    """Row 8a's argument, checked: every pair of Table 8.1's step efficiencies implies more
+    than twice the loss fig. 6.4 allows; with fig. 6.4's loss some stroke energy puts 7.5, 10
+    and 15 V within +-30 % at once, and none can bring 5 V within its band."""
+    f = fidelity.efficiency_dispute_figures()
+    assert f["implied_loss_min_w"] > 2.0 * f["holding_loss_w"]
+    assert f["best_5v_percent"] > f["band_5v_upper_percent"]
+    work_j = f["energy_15v_j"] * target("8d").numbers[0] / 100.0
+    loss_w, r_ohm = f["holding_loss_w"], f["resistance_ohm"]
+
+    def efficiency(own_j: np.ndarray, volts: float) -> np.ndarray:
+        return 100.0 * work_j * (1.0 - loss_w * r_ohm / volts**2) / own_j
+
+    own_j = np.linspace(1.0, 10.0, 9001)
+    fits = np.ones_like(own_j, dtype=bool)
+    for row, volts in (("8b", 7.5), ("8c", 10.0), ("8d", 15.0)):
+        fits &= np.abs(efficiency(own_j, volts) - target(row).numbers[0]) <= 0.3 * target(row).numbers[0]
+    assert fits.any()
+    assert np.all(efficiency(own_j[fits], 5.0) > f["band_5v_upper_percent"])
+
+
 def test_summary_counts_add_up(result):
     s = result.summary
     assert sum(s.counts.values()) == s.total == 125
