@@ -100,6 +100,11 @@ def _problems(values: Mapping[str, Any]) -> list[tuple[str, str]]:
             f"one of {', '.join(ALLOCATIONS)}",
         ),
         ("name", isinstance(values.get("name", ""), str), "a string"),
+        (
+            "version",
+            _is_int(values.get("version", CARD_VERSION)) and 1 <= values.get("version", CARD_VERSION) <= CARD_VERSION,
+            f"an integer from 1 to {CARD_VERSION} (a card of a newer sma-gym? its fields may mean more than this one reads)",
+        ),
     )
     return [(name, expected) for name, ok, expected in checks if not ok]
 

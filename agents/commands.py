@@ -60,6 +60,11 @@ FIDELITY = Command(
 # --------------------------------------------------------------------------------------
 # sma-gym evaluate
 # --------------------------------------------------------------------------------------
+MAX_EVALUATION_SEEDS = 100
+"""Most seeds ``sma-gym evaluate`` runs: every seed reruns every experiment (the full
+evaluation takes minutes per seed), so a typo such as 1000000 would run for weeks."""
+
+
 def _evaluate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", help="folder for the markdown report, the JSON results and the PNG plots")
     p.add_argument("--policy", action="append", help="a stable-baselines3 model (.zip) written by train.py; repeatable")
@@ -89,8 +94,11 @@ def _evaluate(args: argparse.Namespace) -> int:
         raise ValueError(
             f"--experiments {args.experiments!r}: expected at least one of {', '.join(evaluation.EXPERIMENTS)}"
         )
-    if args.seeds < 1:
-        raise ValueError(f"--seeds {args.seeds}: expected an integer >= 1")
+    if not 1 <= args.seeds <= MAX_EVALUATION_SEEDS:
+        raise ValueError(
+            f"--seeds {args.seeds}: expected an integer in [1, {MAX_EVALUATION_SEEDS}] (each seed reruns every "
+            "experiment; the report's figures take 3)"
+        )
     for b in baselines or []:
         evaluation.baseline(b)
     for policy in args.policy or []:

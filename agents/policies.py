@@ -79,6 +79,14 @@ class ControllerPolicy:
     ):
         obs = np.asarray(observation, dtype=float)
         single = obs.ndim == 1
+        if obs.ndim not in (1, 2) or obs.shape[-1] % self.k or not obs.shape[-1]:
+            raise ValueError(
+                f"observation of shape {obs.shape}: expected ({self.k},), (n * {self.k},) or a batch of them "
+                f"(batch, n * {self.k}) from {self.spec.label}'s env"
+            )
+        if not np.isfinite(obs).all():
+            # A controller fed NaN would return NaN duties, which no env accepts.
+            raise ValueError(f"observation holds NaN or inf ({obs.ravel()[~np.isfinite(obs.ravel())][:3]}...)")
         batch = obs.reshape(1 if single else obs.shape[0], -1, self.k)
         n_batch, units, _ = batch.shape
         n = n_batch * units

@@ -131,8 +131,15 @@ def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
     The card is required and must describe this very zip (see :meth:`PolicyCard.load`).
     """
     p = Path(path)
+    if p.is_dir():
+        raise ValueError(f"policy = {str(path)!r}: a folder; expected a stable-baselines3 .zip written by train.py")
     if p.suffix != ".zip":
-        p = p.with_suffix(".zip")
+        if p.is_file():
+            raise ValueError(
+                f"policy = {str(path)!r}: not a .zip; expected a stable-baselines3 .zip written by train.py "
+                "(e.g. runs/<run>/best_model.zip)"
+            )
+        p = p.with_suffix(".zip")  # "runs/x/best_model" names runs/x/best_model.zip
     if not p.is_file():
         raise ValueError(
             f"policy = {str(path)!r}: no such file (expected a stable-baselines3 .zip written by train.py)"
@@ -144,4 +151,45 @@ def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
         model = getattr(stable_baselines3, card.algo).load(str(p), device="cpu")
     except Exception as err:
         raise ValueError(f"policy = {str(path)!r}: not a {card.algo} model ({err})") from None
-    return AgentPolicy.from_card(model, card, name or card.name or p.stem)
+    policy = AgentPolicy.from_card(model, card, name or card.name or p.stem)
+    if card.env_id != BANK_ENV_ID:  # a bank model sees per-actuator rows (sma_gym_agents.bank)
+        _require_card_fits_model(policy, str(path))
+    return policy
+
+
+BANK_ENV_ID = "SMAMultiplexed-v0"
+
+
+def _require_card_fits_model(policy: AgentPolicy, path: str) -> None:
+    """Build what the card says the model saw (its env with ``env_kwargs``, the residual
+    base, history features, frame stack) on one reset observation, and compare its width
+    with the model's observation space: a card that does not describe the model is refused
+    here, not at the first ``predict`` after minutes of baselines."""
+    described = (
+        f"env {policy.env_id} with env_kwargs {policy.env_kwargs}, frame_stack {policy.frame_stack}, "
+        f"history {policy.history!r}, residual {policy.residual!r}"
+    )
+    try:
+        env = gym.make("sma_gym:" + policy.env_id, **policy.env_kwargs)
+        try:
+            obs, _ = env.reset(seed=0)
+        finally:
+            env.close()
+        batch = np.asarray(obs, dtype=float)[None, :]
+        if policy.frame_stack > 1:
+            width = batch.shape[1] * policy.frame_stack
+        else:
+            starts = np.ones(1, dtype=bool)
+            if policy.residual is not None:
+                batch = policy._make_residual().observe(batch, starts)
+            if policy.history != "none":
+                batch = HistoryFeatures.for_env(1, policy.env_id, policy.env_kwargs, policy.history).reset(batch)
+            width = batch.shape[1]
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"policy = {path!r}: its card ({described}) cannot be run: {err}") from None
+    shape = tuple(getattr(policy.model.observation_space, "shape", ()) or ())
+    if shape != (width,):
+        raise ValueError(
+            f"policy = {path!r}: the model takes observations of shape {shape}, but its card ({described}) gives "
+            f"({width},): the card does not describe this model"
+        )

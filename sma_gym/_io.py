@@ -142,6 +142,7 @@ def locked_folder(folder: str | Path, what: str = "--out") -> Iterator[Path]:
     by ``os._exit``-free shutdown paths.
     """
     target = Path(folder)
+    existing = _nearest_existing(target)
     target.mkdir(parents=True, exist_ok=True)
     lock = target / LOCK_NAME
     me = f"{os.getpid()}\n{socket.gethostname()}\n"
@@ -175,9 +176,25 @@ def locked_folder(folder: str | Path, what: str = "--out") -> Iterator[Path]:
     atexit.register(release)
     try:
         yield target
+    except BaseException:
+        release()
+        # A run that failed before writing anything leaves no empty folders behind.
+        _remove_empty_up_to(target, existing)
+        raise
     finally:
         release()
         atexit.unregister(release)
+
+
+def _remove_empty_up_to(folder: Path, keep: Path) -> None:
+    """Remove ``folder`` and its parents below ``keep`` while they are empty."""
+    probe = folder
+    while probe != keep and probe != probe.parent:
+        try:
+            probe.rmdir()  # only ever succeeds on an empty folder
+        except OSError:
+            return
+        probe = probe.parent
 
 
 # --------------------------------------------------------------------------------------
@@ -200,12 +217,19 @@ def _check_writable_dir(folder: Path, what: str, target: Path) -> None:
         raise ValueError(f"{what} {str(target)!r}: cannot write in {str(folder)!r} ({err.strerror or err})") from None
 
 
+def _require_name(path: str | Path, what: str, expected: str) -> None:
+    # Path("") is the current folder: an empty --out would scatter files there.
+    if isinstance(path, str) and not path.strip():
+        raise ValueError(f"{what} {path!r}: empty, expected a {expected}")
+
+
 def check_output_folder(folder: str | Path, what: str = "--out", *, must_be_empty: bool = False) -> Path:
     """Check that ``folder`` can be created and written, creating nothing.
 
     ``must_be_empty``: refuse a folder that already has files (another run's outputs
     would be mixed with this one's).
     """
+    _require_name(folder, what, "folder")
     target = Path(folder)
     if target.exists() and not target.is_dir():
         raise ValueError(f"{what} {str(target)!r}: exists and is not a folder")
@@ -223,6 +247,7 @@ def check_output_folder(folder: str | Path, what: str = "--out", *, must_be_empt
 
 def check_output_file(path: str | Path, what: str = "--out", *, overwrite: bool = False) -> Path:
     """Check that file ``path`` can be written (its folder created), creating nothing."""
+    _require_name(path, what, "file name")
     target = Path(path)
     if target.is_dir():
         raise ValueError(f"{what} {str(target)!r}: is a folder, expected a file name")

@@ -122,6 +122,39 @@ def require_action(action: Any, n: int) -> np.ndarray:
     return a
 
 
+def require_actions(actions: Any, num_envs: int, width: int = 1) -> np.ndarray:
+    """A vector env's actions as a float64 array of shape ``(num_envs, width)``, or a
+    ``ValueError`` naming the expected shape: the batch of :func:`require_action`'s actions.
+    For one actuator per env ``(num_envs,)`` is accepted too. Refused: other shapes (a
+    transposed ``(1, num_envs)`` included), strings, booleans, complex or object values,
+    NaN/inf."""
+    m, n = num_envs, width
+    if type(actions) is np.ndarray and actions.shape == (m, n) and actions.dtype.kind == "f":
+        a = actions.astype(np.float64)
+        if np.isfinite(a).all():
+            return a
+    shapes = f"({m}, {n})" + (f" or ({m},)" if n == 1 else "")
+    expected = f"expected a float array of shape {shapes} with finite values in [-1, 1]"
+    if isinstance(actions, (str, bytes)):
+        raise ValueError(f"actions = {actions!r}: a string; {expected}")
+    try:
+        a = np.asarray(actions)
+    except (TypeError, ValueError):
+        raise ValueError(f"actions = {actions!r}: {expected}") from None
+    if a.dtype.kind not in "fiu":
+        raise ValueError(f"actions of dtype {a.dtype}: {expected}")
+    if n == 1 and a.shape == (m,):
+        a = a.reshape(m, 1)
+    if a.shape != (m, n):
+        raise ValueError(f"actions have shape {a.shape}: {expected}")
+    a = a.astype(np.float64)
+    if not np.isfinite(a).all():
+        i, j = (int(k[0]) for k in np.nonzero(~np.isfinite(a)))
+        where = f"{i}" if n == 1 else f"{i}, {j}"
+        raise ValueError(f"actions[{where}] = {float(a[i, j])!r}: {expected}")
+    return a
+
+
 def _unit(unit: str) -> str:
     return f" ({unit})" if unit else ""
 

@@ -36,6 +36,10 @@ def duty_pattern(steps: int, n: int, seed: int = 0) -> np.ndarray:
     return np.ascontiguousarray(duty)
 
 
+MAX_REPEATS = 100
+"""Most timings ``sma-gym bench --repeats`` takes (each is a few seconds per size and mode)."""
+
+
 def measure(n: int, pwm_mode: str, seconds: float = 0.6, repeats: int = 3, model: object = "standard") -> float:
     """Best-of-``repeats`` actuator-steps/s for n actuators stepped one control step at a time."""
     sim = Simulator(model, n=n, pwm_mode=pwm_mode)
@@ -64,8 +68,8 @@ def run(repeats: int = 3) -> dict[str, dict[str, float]]:
 
 
 def main(as_json: bool = False, repeats: int = 3) -> int:
-    if repeats < 1:
-        raise ValueError(f"repeats = {repeats!r}: expected an integer >= 1")
+    if not 1 <= repeats <= MAX_REPEATS:
+        raise ValueError(f"repeats = {repeats!r}: expected an integer in [1, {MAX_REPEATS}]")
     result = run(repeats)
     if as_json:
         print(json.dumps(result))

@@ -62,7 +62,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     from sma_gym.data import MeasuredDataError, load_traces
     from sma_gym.data.measured import DIAGNOSIS_MIN_ROWS
     from sma_gym.diagnosis.report import write_outputs
-    from sma_gym.diagnosis.workflow import diagnose, require_max_rounds
+    from sma_gym.diagnosis.workflow import diagnose, require_diagnosable, require_max_rounds
     from sma_gym.effects import EFFECTS
     from sma_gym.model import load_model
 
@@ -74,13 +74,20 @@ def _diagnose(args: argparse.Namespace) -> int:
     if args.cross_validate and (args.heldout or len(args.files) < 2):
         raise ValueError("--cross-validate: expected at least 2 files and no --heldout (each file is held out in turn)")
     out = check_output_folder(args.out)
+    _require_distinct_inputs(args.files, args.heldout or [])
     try:
         fit = load_traces(args.files, DIAGNOSIS_MIN_ROWS)
         held = load_traces(args.heldout or [], DIAGNOSIS_MIN_ROWS)
     except MeasuredDataError as err:
         print(f"sma-gym diagnose: invalid measured data:\n{err}", file=sys.stderr)
         return 2
-    nominal = load_model(args.model or DEFAULT_DIAGNOSIS_MODEL)
+    require_diagnosable(fit, held)
+    named = _sidecar_model([*fit, *held])
+    if args.model is not None and named is not None and args.model != named:
+        print(f"sma-gym diagnose: note: --model {args.model!r} is used; the sidecars name {named!r}", file=sys.stderr)
+    nominal = load_model(args.model or named or DEFAULT_DIAGNOSIS_MODEL)
+    outputs = CROSS_VALIDATION_OUTPUTS if args.cross_validate else None
+    _require_out_free(args, out, fit, held, outputs)
     effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
     for name in effects or []:
         if name not in EFFECTS:
@@ -97,7 +104,7 @@ def _diagnose(args: argparse.Namespace) -> int:
         )
         paths = write_outputs(result, out, fit, held, nominal)
     _print_diagnosis(result, paths, args.json)
-    if args.model is None and result.verdict == "unexplained":
+    if args.model is None and named is None and result.verdict == "unexplained":
         # The commonest cause on real data: the wrong actuator, not a missing effect.
         print(
             f"sma-gym diagnose: note: the nominal model was the default {DEFAULT_DIAGNOSIS_MODEL!r} (the report's "
@@ -106,6 +113,76 @@ def _diagnose(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     return 0
+
+
+CROSS_VALIDATION_OUTPUTS = ("cross_validation.json", "cross_validation.md")
+"""What ``sma-gym diagnose --cross-validate`` writes into ``--out``."""
+
+
+def _sidecar_model(traces: Sequence[Any]) -> str | None:
+    """The nominal model the files' sidecars name (``"model"``), when ``--model`` is not
+    given: a preset or twin name (:func:`sma_gym.model.model_names`). Files that name
+    different models, or a name that is not a model, are refused."""
+    from sma_gym.model import model_names
+
+    named = {str(t.path): t.conditions["model"] for t in traces if "model" in t.conditions}
+    if not named:
+        return None
+    for path, name in named.items():
+        if name not in model_names():
+            raise ValueError(
+                f"{path}: sidecar 'model' = {name!r}: expected a model name ({', '.join(model_names())}); a free-text "
+                "description of the actuator goes into 'notes'"
+            )
+    if len(set(named.values())) > 1:
+        shown = "; ".join(f"{path}: {name!r}" for path, name in named.items())
+        raise ValueError(f"the sidecars name different models ({shown}): expected one, or give --model")
+    return next(iter(named.values()))
+
+
+def _require_distinct_inputs(files: Sequence[str], heldout: Sequence[str]) -> None:
+    """A file given twice (or as fitted and held-out data) would count its evidence twice,
+    and held-out data that was also fitted is not held out."""
+    seen: dict[Path, str] = {}
+    for what, names in (("fit file", files), ("--heldout", heldout)):
+        for name in names:
+            key = Path(name).resolve()
+            if key in seen:
+                raise ValueError(
+                    f"{what} {name!r}: already given as {seen[key]}; each measured file may appear once "
+                    "(held-out data must not be fitted)"
+                )
+            seen[key] = f"{what} {name!r}"
+
+
+def _require_out_free(args: argparse.Namespace, out: Path, fit: Any, held: Any, outputs: Sequence[str] | None) -> None:
+    """Refuse an ``--out`` whose outputs would replace an input, or an earlier report without
+    ``--overwrite`` (the user's files are never changed unasked)."""
+    from sma_gym.data.measured import sidecar_path
+    from sma_gym.diagnosis.report import output_paths, previous_outputs
+
+    if outputs is None:
+        written = output_paths(out, fit, held)
+        earlier = previous_outputs(out)
+    else:
+        written = [out / name for name in outputs]
+        earlier = [p for p in written if p.exists()]
+    inputs = [Path(f) for f in (*args.files, *(args.heldout or []))]
+    inputs += [side for side in (sidecar_path(p) for p in inputs) if side is not None]
+    if args.model is not None and Path(args.model).is_file():
+        inputs.append(Path(args.model))
+    clash = {p.resolve() for p in written} & {p.resolve() for p in inputs}
+    if clash:
+        raise ValueError(
+            f"--out {str(out)!r}: this run would write over its own input {', '.join(sorted(map(str, clash)))}; "
+            "copy the input elsewhere or choose another --out"
+        )
+    if earlier and not args.overwrite:
+        shown = ", ".join(p.name for p in earlier[:4]) + (", ..." if len(earlier) > 4 else "")
+        raise ValueError(
+            f"--out {str(out)!r}: holds an earlier diagnosis ({shown}); choose a new folder or pass --overwrite "
+            "to replace it"
+        )
 
 
 def _cross_validate(
@@ -196,6 +273,11 @@ def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
         "writes cross_validation.md/.json",
     )
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace an earlier diagnosis in --out (its report, plots and corrected model)",
+    )
 
 
 def _synth_arguments(p: argparse.ArgumentParser) -> None:

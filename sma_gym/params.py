@@ -703,7 +703,10 @@ class ActuatorParams:
                 unknown = set(value) - known
                 if unknown:
                     raise ValueError(f"unknown parameter(s) {sorted(unknown)} in group {key!r}; known: {sorted(known)}")
-                kwargs[key] = groups[key](**{k: _json_float(v) for k, v in value.items()})
+                defaults = {f.name: f.default for f in dataclasses.fields(groups[key])}
+                kwargs[key] = groups[key](
+                    **{k: _json_typed(f"{key}.{k}", _json_float(v), defaults[k]) for k, v in value.items()}
+                )
             elif key in ("name", "description"):
                 kwargs[key] = str(value)
             else:
@@ -722,6 +725,23 @@ def _one_expansion_for_both_phases(wire: dict[str, Any]) -> dict[str, Any]:
     out.setdefault("thermal_expansion_austenite_1_k", alpha)
     out.setdefault("thermal_expansion_martensite_1_k", alpha)
     return out
+
+
+def _json_typed(name: str, value: Any, default: Any) -> Any:
+    """``value`` if it has the JSON type of the field's default: a number where the default
+    is a number (``"10"`` or ``true`` for a voltage is an error naming the field, not a
+    string that fails deep inside the simulation), a string or a boolean likewise."""
+    if isinstance(default, bool):
+        expected, ok = "true or false", isinstance(value, bool)
+    elif isinstance(default, (int, float)):
+        expected, ok = "a number", isinstance(value, (int, float)) and not isinstance(value, bool)
+    elif isinstance(default, str):
+        expected, ok = "a string", isinstance(value, str)
+    else:  # no plain default (a tuple, a factory): the dataclass checks it
+        return value
+    if not ok:
+        raise ValueError(f"{name} = {value!r} (JSON {type(value).__name__}): expected {expected}")
+    return value
 
 
 def _json_float(value: Any) -> Any:

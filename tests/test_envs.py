@@ -320,8 +320,20 @@ def test_vector_env_matches_single_envs_step_for_step(env_id, kwargs):
 def test_vector_env_rejects_bad_actions():
     venv = gym.make_vec("sma_gym:SMATracking-v0", num_envs=3, vectorization_mode="vector_entry_point")
     venv.reset(seed=0)
-    with pytest.raises(ValueError, match=r"actions\[1\]"):
+    with pytest.raises(ValueError, match=r"actions\[1\] = nan"):
         venv.step(np.array([[0.0], [np.nan], [0.0]], dtype=np.float32))
+    # Wrong batch sizes, a transposed batch, booleans and strings are named, not reshaped or cast.
+    for bad, match in (
+        (np.zeros((2, 1)), r"shape \(2, 1\): expected a float array of shape \(3, 1\) or \(3,\)"),
+        (np.zeros((1, 3)), r"shape \(1, 3\)"),
+        (np.zeros((3, 1), dtype=bool), "dtype bool"),
+        (np.array(["a", "b", "c"]), "dtype <U1"),
+        ("abc", "a string"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            venv.step(bad)
+    venv.step([0.1, 0.2, 0.3])  # a flat batch of one action per sub-env is fine
+    venv.step(np.zeros((3, 1), dtype=np.float32))
 
 
 def test_sb3_trains_on_the_native_vector_env_through_the_adapter():

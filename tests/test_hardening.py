@@ -6,6 +6,7 @@ One section per item of the issue; each test fails on the code before the fix.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import stat
 import subprocess
@@ -675,3 +676,231 @@ def test_models_across_the_bounds_are_refused_or_step_in_bounded_time(tmp_path_f
     check()
     print(f"models: {outcomes.count('refused')} refused, {outcomes.count('stepped')} stepped")
     assert "refused" in outcomes and "stepped" in outcomes
+
+
+# --- from a new user's try of bad input (2026-11-25) ------------------------------------------
+
+
+def _sha(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_diagnose_never_writes_over_its_inputs_nor_silently_over_an_earlier_report(tmp_path, capsys):
+    from sma_gym.cli import main
+
+    a = _synth(tmp_path, "a.csv")
+    b = _synth(tmp_path, "b.csv", "--seed", "1")
+    out = tmp_path / "d"
+    quick = ["--effects", "sensor_lag", "--max-rounds", "1"]
+    assert main(["diagnose", str(a), "--out", str(out), *quick]) == 0
+    model = out / "corrected_model.json"
+    before = {p.name: _sha(p) for p in out.iterdir()}
+    # The corrected model passed back as the nominal one, into the same folder: refused even
+    # with --overwrite, since the run would replace the file it reads.
+    for extra in ([], ["--overwrite"]):
+        assert main(["diagnose", str(b), "--model", str(model), "--out", str(out), *quick, *extra]) == 2
+        assert "write over its own input" in capsys.readouterr().err
+    # A measured file inside --out that shares an output's name is protected the same way.
+    clash = out / "diagnosis.json"
+    assert main(["diagnose", str(a), "--heldout", str(clash), "--out", str(out), *quick, "--overwrite"]) == 2
+    assert {p.name: _sha(p) for p in out.iterdir()} == before
+    # An earlier report needs --overwrite, which replaces it and removes its plots of other files.
+    assert main(["diagnose", str(b), "--out", str(out), *quick]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert {p.name: _sha(p) for p in out.iterdir()} == before
+    assert main(["diagnose", str(b), "--out", str(out), *quick, "--overwrite"]) == 0
+    names = {p.name for p in out.iterdir()}
+    assert "fit_0_b.png" in names and "fit_0_a.png" not in names, names
+
+
+def test_diagnose_refuses_unusable_data_before_it_creates_out(tmp_path, capsys):
+    from sma_gym.cli import main
+
+    good = _synth(tmp_path, "s.csv")
+    short = tmp_path / "short.csv"  # 100 rows but under 1 ms: not one control step
+    short.write_text("t,duty,position\n" + "".join(f"{k * 1e-5!r},0.5,0.0\n" for k in range(100)))
+    dead = tmp_path / "dead.csv"  # the duty steps, the sensor never moves
+    dead.write_text(
+        "t,duty,position,resistance\n"
+        + "".join(f"{k * 1e-3!r},{0.3 if k > 500 else 0.0},0.0,3.75\n" for k in range(3000))
+    )
+    out = tmp_path / "d"
+    cases = [
+        ([str(short)], "short.csv: 0.99 ms of data, expected at least 20 control steps"),
+        ([str(dead)], "no measured output varies"),
+        ([str(good), str(good)], "already given"),
+        ([str(good), "--heldout", str(good)], "held-out data must not be fitted"),
+    ]
+    for files, message in cases:
+        assert main(["diagnose", *files, "--out", str(out)]) == 2
+        assert message in capsys.readouterr().err
+        assert not out.exists()
+    assert main(["diagnose", str(good), "--out", ""]) == 2
+    assert "--out '': empty, expected a folder" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        ["dead.csv", "s.csv", "s.csv.json", "s.labels.json", "short.csv"]
+    )
+
+
+def test_a_sidecar_model_is_the_nominal_model_or_refused(tmp_path, capsys, monkeypatch):
+    import json
+
+    import sma_gym.diagnosis.workflow
+    from sma_gym.cli import main
+
+    used = []
+
+    class Stop(Exception):
+        """Raised instead of the work: only the choice of the nominal model is tested."""
+
+    def record(fit, held, nominal, *args, **kwargs):
+        used.append(nominal.actuator.name)
+        raise Stop
+
+    monkeypatch.setattr(sma_gym.diagnosis.workflow, "diagnose", record)
+    csv = _synth(tmp_path, "s.csv")
+    side = tmp_path / "s.csv.json"
+    conditions = json.loads(side.read_text())
+    side.write_text(json.dumps({**conditions, "model": "Flexinol 0.5 mm"}))
+    assert main(["diagnose", str(csv), "--out", str(tmp_path / "d")]) == 2
+    assert "sidecar 'model' = 'Flexinol 0.5 mm': expected a model name" in capsys.readouterr().err
+    side.write_text(json.dumps({**conditions, "model": "wire-0.5mm"}))
+    with pytest.raises(Stop):
+        main(["diagnose", str(csv), "--out", str(tmp_path / "d")])
+    with pytest.raises(Stop):
+        main(["diagnose", str(csv), "--out", str(tmp_path / "d"), "--model", "standard"])
+    from sma_gym.model import load_model
+
+    assert used == [load_model("wire-0.5mm").actuator.name, load_model("standard").actuator.name]
+    assert not (tmp_path / "d").exists()  # the failed runs left no empty folder
+
+
+def test_locked_folder_removes_only_the_empty_folders_it_created_on_failure(tmp_path):
+    from sma_gym._io import locked_folder
+
+    with pytest.raises(RuntimeError), locked_folder(tmp_path / "new" / "deeper"):
+        raise RuntimeError("failed before writing")
+    assert not (tmp_path / "new").exists()
+    with pytest.raises(RuntimeError), locked_folder(tmp_path / "kept") as folder:
+        (folder / "partial.md").write_text("written before the failure")
+        raise RuntimeError("failed after writing")
+    assert [p.name for p in (tmp_path / "kept").iterdir()] == ["partial.md"]
+    (tmp_path / "existing").mkdir()
+    with pytest.raises(RuntimeError), locked_folder(tmp_path / "existing"):
+        raise RuntimeError("failed")
+    assert (tmp_path / "existing").is_dir()  # the user's (empty) folder stays
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["--env-kwargs", "control_period_s:"], "control_period_s = ''"),
+        (["--env-kwargs", "foo:1"], "unknown env kwargs ['foo']"),
+        (["--hyperparams", "gamma:2"], "gamma = 2: expected a number in (0, 1]"),
+        (["--hyperparams", "learning_rate:-1"], "learning_rate = -1"),
+        (["--timesteps", "-5"], "--quick with --timesteps -5"),
+        (["--hyperparams", "ent_coef:bad"], "'bad'"),  # refused by stable-baselines3 itself, after run.json
+    ],
+)
+def test_train_refuses_bad_options_and_leaves_no_run_folder(tmp_path, args, needle):
+    out = tmp_path / "run"
+    proc = _run([sys.executable, str(ROOT / "train.py"), "--quick", "--no-progress", "--out", str(out), *args])
+    assert proc.returncode == 2 and needle in proc.stderr and "Traceback" not in proc.stderr, proc.stderr[-2000:]
+    assert not out.exists()  # so the corrected command can use the same --out
+
+
+def test_resume_refuses_a_folder_that_is_not_a_sweep(tmp_path):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "data.csv").write_text("t,duty,position\n")
+    proc = _run([sys.executable, str(ROOT / "train.py"), "--quick", "--seeds", "2", "--resume", "--out", str(out)])
+    assert proc.returncode == 2 and "not a sweep's folder" in proc.stderr and "data.csv" in proc.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["data.csv"]
+
+
+def test_model_files_hold_numbers_where_the_model_has_numbers(tmp_path):
+    import gymnasium as gym
+
+    from sma_gym.model import ModelConfig
+
+    data = ModelConfig().to_dict()
+    for value, kind in (("10", "str"), (True, "bool")):
+        data["actuator"]["driver"]["supply_voltage_v"] = value
+        with pytest.raises(ValueError, match=rf"driver.supply_voltage_v = .* \(JSON {kind}\): expected a number"):
+            ModelConfig.from_dict(data)
+    data["actuator"]["driver"]["supply_voltage_v"] = 10
+    assert ModelConfig.from_dict(data).actuator.driver.supply_voltage_v == 10
+    with pytest.raises(ValueError, match="reference = 5: expected a reference name"):
+        gym.make("sma_gym:SMATracking-v0", reference=5)
+
+
+def test_the_loader_refuses_a_card_that_does_not_describe_its_model(tmp_path):
+    import json
+
+    from sma_gym_agents.trained import load_policy, save_policy
+
+    model = _tiny_model()
+    path = save_policy(model, tmp_path / "agent.zip", CARD)
+    card_path = tmp_path / "agent.json"
+    good = json.loads(card_path.read_text())
+    cases = {
+        "frame_stack": (5, "the card does not describe this model"),
+        "history": ("ema", "the card does not describe this model"),
+        "residual": ("nope", "cannot be run: controller = 'nope'"),
+        "env_kwargs": ({"control_period_s": 0.0}, "cannot be run: control_period_s = 0.0"),
+        "version": (99, "version = 99: expected an integer from 1 to 1"),
+    }
+    for key, (value, message) in cases.items():
+        card_path.write_text(json.dumps({**good, key: value}))
+        with pytest.raises(ValueError, match=re.escape(message)):
+            load_policy(path)
+    card_path.write_text(json.dumps(good))
+    assert load_policy(path).name == "tiny"
+
+
+def test_evaluate_and_bench_bound_their_repeat_counts(capsys, monkeypatch):
+    import sma_gym.bench
+    import sma_gym_agents.commands
+    from sma_gym.cli import main
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("a million repeats were accepted")  # fail, do not run for days
+
+    monkeypatch.setattr(sma_gym_agents.commands, "evaluate", no_work)
+    monkeypatch.setattr(sma_gym.bench, "run", no_work)
+    assert main(["evaluate", "--experiments", "8", "--seeds", "1000000"]) == 2
+    assert "--seeds 1000000: expected an integer in [1, 100]" in capsys.readouterr().err
+    assert main(["bench", "--repeats", "1000000"]) == 2
+    assert "repeats = 1000000: expected an integer in [1, 100]" in capsys.readouterr().err
+
+
+def test_policy_paths_and_controller_observations_are_named_when_wrong(tmp_path):
+    import gymnasium as gym
+
+    from sma_gym_agents import ControllerPolicy
+    from sma_gym_agents.trained import load_policy
+
+    (tmp_path / "plain.txt").write_text("not a model")
+    with pytest.raises(ValueError, match=r"not a \.zip"):
+        load_policy(tmp_path / "plain.txt")
+    with pytest.raises(ValueError, match="a folder"):
+        load_policy(tmp_path)
+    policy = ControllerPolicy("PID", gym.make("sma_gym:SMATracking-v0"))
+    k = policy.k
+    with pytest.raises(ValueError, match="NaN or inf"):
+        policy.predict(np.full(k, np.nan))
+    with pytest.raises(ValueError, match=rf"shape \({k + 1},\)"):
+        policy.predict(np.zeros(k + 1))
+
+
+def test_a_file_of_text_names_the_first_bad_cells_and_counts_the_rest(tmp_path):
+    from sma_gym.data import MeasuredDataError, load_trace
+
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,duty,position\n" + "".join(f"{k * 1e-3},x,0\n" for k in range(5000)))
+    with pytest.raises(MeasuredDataError) as err:
+        load_trace(bad)
+    lines = str(err.value).splitlines()
+    assert len(lines) < 30 and "4980 more cells that are not numbers" in lines[-1]

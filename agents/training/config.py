@@ -333,6 +333,7 @@ class RunConfig:
                 f"{hyperparams_path(algo).name} [{args.env}]: train.py does not implement {refused} (RL Zoo does)"
             )
         model_kwargs = {k: v for k, v in table.items() if k not in _RUN_KEYS}
+        check_model_kwargs(model_kwargs, hyperparams_path(algo).name + f" [{args.env}] or --hyperparams")
         if "policy_kwargs" in model_kwargs:
             model_kwargs["policy_kwargs"] = literal_kwargs(model_kwargs["policy_kwargs"], "policy_kwargs")
         features = agent_features(table.get("vec_env_wrapper"))
@@ -344,6 +345,16 @@ class RunConfig:
         timesteps = int(table["n_timesteps"] if args.timesteps is None else args.timesteps)
         eval_freq = EVAL_FREQ[algo] if args.eval_freq is None else args.eval_freq
         if args.quick:
+            given = [
+                f"{o} {v}"
+                for o, v in (("--timesteps", args.timesteps), ("--eval-freq", args.eval_freq))
+                if v is not None
+            ]
+            if given:
+                raise ValueError(
+                    f"--quick with {' and '.join(given)}: --quick sets {QUICK_TIMESTEPS} steps and an evaluation every "
+                    "500; give either --quick or the budget"
+                )
             timesteps, eval_freq = QUICK_TIMESTEPS, 500
             model_kwargs.update(
                 {"learning_starts": 200, "buffer_size": 10_000} if algo == "sac" else {"n_steps": 64, "batch_size": 64}
@@ -368,7 +379,9 @@ class RunConfig:
             residual_allocation=features.residual_allocation,
             residual_filter_s=features.residual_filter_s if residual is not None else 0.0,
         )
-        return run.checked()
+        run = run.checked()
+        check_env_kwargs(run.env_id, run.env_kwargs)
+        return run
 
     def checked(self) -> RunConfig:
         """This configuration with the device and residual label checked (and the label
@@ -439,6 +452,39 @@ class RunConfig:
     def agent_name(self) -> str:
         """The name of the run's best model in tables (``"SAC agent"``)."""
         return f"{self.algo.upper()} agent"
+
+
+_UNIT_INTERVAL_KEYS = ("gamma", "tau", "gae_lambda")
+"""Algorithm keywords that are fractions in (0, 1]: a discount above 1 makes returns diverge."""
+_POSITIVE_KEYS = ("learning_rate", "batch_size", "buffer_size", "n_steps", "n_epochs", "train_freq")
+
+
+def check_model_kwargs(model_kwargs: dict[str, Any], where: str) -> None:
+    """Refuse values of the algorithm's common keywords that stable-baselines3 accepts but
+    cannot learn with (``gamma`` 2), or refuses only once the run folder exists; a
+    ``ValueError`` naming the key, its value and the range."""
+    for key in _UNIT_INTERVAL_KEYS:
+        value = model_kwargs.get(key)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value <= 1):
+            raise ValueError(f"{where}: {key} = {value!r}: expected a number in (0, 1]")
+    for key in _POSITIVE_KEYS:
+        value = model_kwargs.get(key)
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and not value > 0:
+            raise ValueError(f"{where}: {key} = {value!r}: expected a number > 0")
+    starts = model_kwargs.get("learning_starts")
+    if isinstance(starts, (int, float)) and not isinstance(starts, bool) and not starts >= 0:
+        raise ValueError(f"{where}: learning_starts = {starts!r}: expected an integer >= 0")
+
+
+def check_env_kwargs(env_id: str, env_kwargs: dict[str, Any]) -> None:
+    """Build the env once with ``env_kwargs``, so that a value it refuses is reported before
+    a run folder exists (and before a sweep starts its seeds)."""
+    import gymnasium as gym
+
+    try:
+        gym.make("sma_gym:" + env_id, **env_kwargs).close()
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"--env-kwargs / env_kwargs of {env_id}: {err}") from None
 
 
 def check_device(device: str) -> str:

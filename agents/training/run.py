@@ -6,6 +6,7 @@ and by every seed of a sweep (:mod:`sma_gym_agents.training.sweep`).
 
 from __future__ import annotations
 
+import contextlib
 import time
 from pathlib import Path
 from typing import Any
@@ -35,7 +36,11 @@ def train_and_compare(
         write_json(out / "run.json", run.as_dict(), default=str)
         source = provenance()  # at the start: the code this process loaded, whatever is committed meanwhile
         started = time.perf_counter()
-        info = train(run, out, progress=progress)
+        try:
+            info = train(run, out, progress=progress)
+        except BaseException:
+            _forget_unstarted(out)
+            raise
         table, goals = compare(run, out)
         total = time.perf_counter() - started
         table += (
@@ -54,3 +59,19 @@ def train_and_compare(
             },
         )
     return table, goals
+
+
+def _forget_unstarted(out: Path) -> None:
+    """After a run that failed before writing any file but ``run.json`` (a bad option the
+    env or the algorithm refused), remove ``run.json`` and the empty folders it made, so
+    that the corrected command can use the same ``--out``. A run that got further keeps
+    its files (checkpoints are worth keeping)."""
+    from sma_gym._io import LOCK_NAME
+
+    files = [p for p in out.rglob("*") if p.is_file() and p.name not in ("run.json", LOCK_NAME)]
+    if files:
+        return
+    (out / "run.json").unlink(missing_ok=True)
+    for folder in sorted((p for p in out.rglob("*") if p.is_dir()), key=lambda p: len(p.parts), reverse=True):
+        with contextlib.suppress(OSError):
+            folder.rmdir()  # only ever succeeds on an empty folder

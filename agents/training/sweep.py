@@ -366,6 +366,28 @@ def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int
     return table, len(failed)
 
 
+def require_sweep_folder(out: Path) -> None:
+    """``--resume`` continues a sweep: refuse a folder that holds anything a sweep does not
+    write (a single run's folder, a folder of the user's files), which it would mix into."""
+    import re
+
+    from sma_gym._io import LOCK_NAME
+
+    if not out.is_dir():
+        return
+    foreign = sorted(
+        p.name
+        for p in out.iterdir()
+        if p.name not in (*SWEEP_OUTPUTS, LOCK_NAME) and not (p.is_dir() and re.fullmatch(r"seed-\d+", p.name))
+    )
+    if foreign:
+        shown = ", ".join(foreign[:5]) + (", ..." if len(foreign) > 5 else "")
+        raise ValueError(
+            f"--resume: --out {str(out)!r} is not a sweep's folder (it holds {shown}, which a sweep does not write); "
+            "give the --out of the sweep to continue, or a new folder"
+        )
+
+
 def prepare_sweep_out(out: Path) -> None:
     """Delete a previous sweep's outputs from ``out`` (``--overwrite``)."""
     import shutil
@@ -408,6 +430,8 @@ def sweep_main(args: argparse.Namespace, run: RunConfig) -> int:
         raise ValueError("--resume: give the --out folder of the sweep to continue")
     out = Path(args.out) if args.out else default_sweep_out(run)
     check_output_folder(out, must_be_empty=not (args.overwrite or args.resume))
+    if args.resume:
+        require_sweep_folder(out)
     with locked_folder(out):
         if args.overwrite:
             prepare_sweep_out(out)

@@ -22,6 +22,9 @@ named ``<file>.json`` (e.g. ``step01.csv.json``; ``step01.json`` is accepted too
     {"supply_voltage_v": 24.0, "wire_diameter_m": 0.0005, "pwm_frequency_hz": 1000,
      "ambient_temperature_c": 20.0, "model": "bench-0.5mm-ht", "notes": "..."}
 
+``model`` names the nominal model the data are diagnosed against (a preset or twin name, as
+``sma-gym diagnose --model``; the option wins when both are given).
+
 Loading checks everything and reports *every* problem with file, row and column (missing
 columns, non-monotonic time, NaN where not allowed, duty outside [0, 1], unit slips such
 as a position in millimetres or time in milliseconds). Files are only read, never written.
@@ -54,6 +57,9 @@ SIDECAR_KEYS = {
     "ambient_temperature_c": (-60.0, 200.0),
 }
 SIDECAR_TEXT_KEYS = ("model", "notes", "source")
+
+MAX_PROBLEMS_SHOWN = 20
+"""Problems of one kind named one by one per file; further ones are counted in one line."""
 
 #: Plausibility bounds that catch unit slips (a Flexinol actuator's stroke is centimetres).
 MAX_ABS_POSITION_M = 0.1
@@ -189,10 +195,22 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
         )
     columns: dict[str, np.ndarray] = {name: np.full(len(data_rows), math.nan) for name in header}
     reported = {name: np.zeros(len(data_rows), dtype=bool) for name in header}
+    # As the value checks: the first few of a kind are named, the rest counted (a file of
+    # text in every row would otherwise print one line per row).
+    shown = {"fields": 0, "number": 0}
+    hidden = {"fields": 0, "number": 0}
+
+    def report(kind: str, message: str) -> None:
+        if shown[kind] < MAX_PROBLEMS_SHOWN:
+            shown[kind] += 1
+            problems.append(message)
+        else:
+            hidden[kind] += 1
+
     for i, row in enumerate(data_rows):
         line = i + 2
         if len(row) != len(header):
-            problems.append(f"{where}:{line}: {len(row)} fields, expected {len(header)}")
+            report("fields", f"{where}:{line}: {len(row)} fields, expected {len(header)}")
             for name in header:
                 reported[name][i] = True
             continue
@@ -200,8 +218,12 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
             try:
                 columns[name][i] = _parse_float(text)
             except ValueError:
-                problems.append(f"{where}:{line}:{name}: {text!r} is not a number")
+                report("number", f"{where}:{line}:{name}: {text!r} is not a number")
                 reported[name][i] = True
+    if hidden["fields"]:
+        problems.append(f"{where}: ... {hidden['fields']} more rows with the wrong number of fields")
+    if hidden["number"]:
+        problems.append(f"{where}: ... {hidden['number']} more cells that are not numbers")
     return columns, problems, reported
 
 
@@ -272,6 +294,14 @@ def _value_problems(columns: dict[str, np.ndarray], where: str, reported: dict[s
     return problems
 
 
+def _as_float(value: int | float) -> float:
+    # A JSON integer may be too large for a float (OverflowError): it is out of any range.
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
+
+
 def _read_sidecar(p: Path) -> tuple[dict[str, Any], list[str]]:
     """The sidecar's conditions (if the file has one) and the problems found in it."""
     problems: list[str] = []
@@ -286,10 +316,10 @@ def _read_sidecar(p: Path) -> tuple[dict[str, Any], list[str]]:
         for key, value in raw.items():
             if key in SIDECAR_KEYS:
                 lo, hi = SIDECAR_KEYS[key]
-                if isinstance(value, bool) or not isinstance(value, (int, float)) or not (lo <= float(value) <= hi):
+                if isinstance(value, bool) or not isinstance(value, (int, float)) or not (lo <= _as_float(value) <= hi):
                     problems.append(f"{side}:{key}: {value!r}: expected a number in [{lo:g}, {hi:g}]")
                 else:
-                    conditions[key] = float(value)
+                    conditions[key] = _as_float(value)
             elif key in SIDECAR_TEXT_KEYS:
                 conditions[key] = str(value)
             else:

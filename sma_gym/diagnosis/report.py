@@ -36,7 +36,7 @@ def write_report(
     plots = []
     for label, traces in (("fit", fit_traces), ("heldout", heldout_traces)):
         for k, trace in enumerate(traces):
-            plots.append(_plot_trace(trace, nominal, result, out / f"{label}_{k}_{Path(trace.name).stem}.png", label))
+            plots.append(_plot_trace(trace, nominal, result, _trace_plot_path(out, label, k, trace), label))
     plots.append(_plot_regimes(result, out / "residuals_by_regime.png"))
     if result.rounds:
         plots.append(_plot_rounds(result, out / "gap_by_round.png"))
@@ -263,6 +263,39 @@ def cross_validation_table(cv: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+OUTPUT_PATTERNS = (
+    "diagnosis.md",
+    "diagnosis.json",
+    "corrected_model.json",
+    "residuals_by_regime.png",
+    "gap_by_round.png",
+    "fit_*_*.png",
+    "heldout_*_*.png",
+)
+"""Every file :func:`write_outputs` may write into its folder (glob patterns): what an
+earlier diagnosis in the same folder left there and a new one replaces."""
+
+
+def _trace_plot_path(out: Path, label: str, k: int, trace: MeasuredTrace) -> Path:
+    return out / f"{label}_{k}_{Path(trace.name).stem}.png"
+
+
+def output_paths(out: Path, fit_traces: Sequence[MeasuredTrace], heldout_traces: Sequence[MeasuredTrace]) -> list[Path]:
+    """The files :func:`write_outputs` writes into ``out`` for these traces (known before
+    the diagnosis runs, so that a command can refuse to write over one of its inputs)."""
+    names = [out / name for name in OUTPUT_PATTERNS if "*" not in name]
+    for label, traces in (("fit", fit_traces), ("heldout", heldout_traces)):
+        names += [_trace_plot_path(out, label, k, trace) for k, trace in enumerate(traces)]
+    return names
+
+
+def previous_outputs(out: Path) -> list[Path]:
+    """Files in ``out`` that a diagnosis writes (:data:`OUTPUT_PATTERNS`): an earlier run's."""
+    if not out.is_dir():
+        return []
+    return sorted({p for pattern in OUTPUT_PATTERNS for p in out.glob(pattern) if p.is_file()})
+
+
 def write_outputs(
     result: Diagnosis,
     out: Path,
@@ -276,10 +309,16 @@ def write_outputs(
     never leaves a corrected model without the report and JSON that justify it.
     """
     out.mkdir(parents=True, exist_ok=True)
+    earlier = previous_outputs(out)
     report = write_report(result, out, fit_traces, heldout_traces, nominal)
     # The code beside the verdicts: the nominal model changes between commits.
     write_json(out / "diagnosis.json", {**result.as_dict(), "provenance": provenance()}, default=json_default)
     model_path = result.corrected_model.save(out / "corrected_model.json")
+    # An earlier run's plots of other files would read as this run's.
+    written = set(output_paths(out, fit_traces, heldout_traces))
+    for stale in earlier:
+        if stale not in written:
+            stale.unlink(missing_ok=True)
     return {"model": model_path, "json": out / "diagnosis.json", "report": report}
 
 

@@ -274,6 +274,7 @@ def diagnose(
     threads = fitting.default_threads() if threads is None else fitting.require_threads("threads", threads)
     if not fit_traces:
         raise ValueError("no files to fit: give at least one measured trace")
+    require_diagnosable(fit_traces, heldout_traces, control_period_s)
     fit_traces = [_decimated(t, control_period_s, say) for t in fit_traces]
     heldout_traces = [_decimated(t, control_period_s, say) for t in heldout_traces]
     say(
@@ -854,18 +855,56 @@ def _at_bounds(fit: fitting.Fit) -> list[str]:
     return out
 
 
-def _decimated(trace: MeasuredTrace, control_period_s: float, say: Callable[[str], None]) -> MeasuredTrace:
-    """``trace`` at no more than one sample per control period; refuse a too short or overlong file."""
+def require_diagnosable(
+    fit_traces: Sequence[MeasuredTrace],
+    heldout_traces: Sequence[MeasuredTrace] = (),
+    control_period_s: float = CONTROL_PERIOD_S,
+) -> None:
+    """Refuse data a diagnosis cannot use, with a ``ValueError`` naming the file and the
+    value: too few samples or control steps, too long a file, or no measured output that
+    varies at all (a disconnected sensor: every fit would end at its bounds and still name
+    an effect). ``sma-gym diagnose`` calls it before it creates its output folder."""
+    for trace in (*fit_traces, *heldout_traces):
+        _require_file(trace, control_period_s)
+    outputs = ("position", "resistance", "current", "supply_voltage", "force")
+    varying = [
+        name
+        for trace in fit_traces
+        for name in outputs
+        if getattr(trace, name) is not None and np.ptp(np.asarray(getattr(trace, name), dtype=float)) > 0.0
+    ]
+    if fit_traces and not varying:
+        names = ", ".join(str(t.path) for t in fit_traces)
+        raise ValueError(
+            f"{names}: no measured output varies (position and every other measured column are constant over the "
+            "whole data); expected a trace in which the wire moves or its resistance changes: is the sensor connected?"
+        )
+
+
+def _require_file(trace: MeasuredTrace, control_period_s: float) -> None:
+    """One file's checks of :func:`require_diagnosable` (length and duration)."""
     if len(trace.t) < DIAGNOSIS_MIN_ROWS:
         raise ValueError(
             f"{trace.path}: {len(trace.t)} samples, expected at least {DIAGNOSIS_MIN_ROWS} "
             "(the diagnosis fits more than ten samples after holding out the last 30 % of a file)"
         )
+    if trace.duration_s / control_period_s < DIAGNOSIS_MIN_ROWS:
+        raise ValueError(
+            f"{trace.path}: {trace.duration_s * 1e3:.3g} ms of data, expected at least {DIAGNOSIS_MIN_ROWS} "
+            f"control steps of {control_period_s * 1e3:g} ms ({DIAGNOSIS_MIN_ROWS * control_period_s * 1e3:g} ms): "
+            "the model is compared at its control steps"
+        )
     if trace.duration_s > MAX_DURATION_S:
         raise ValueError(
-            f"{trace.path}: {trace.duration_s:.0f} s of data; diagnosis accepts at most {MAX_DURATION_S:.0f} s per file "
-            "(each candidate re-simulates every 1 ms step many times); cut the file to the part with the behaviour to explain"
+            f"{trace.path}: {trace.duration_s:.0f} s of data; diagnosis accepts at most {MAX_DURATION_S:.0f} s per "
+            "file (each candidate re-simulates every 1 ms step many times); cut the file to the part with the "
+            "behaviour to explain"
         )
+
+
+def _decimated(trace: MeasuredTrace, control_period_s: float, say: Callable[[str], None]) -> MeasuredTrace:
+    """``trace`` at no more than one sample per control period; refuse a too short or overlong file."""
+    _require_file(trace, control_period_s)
     every = int(control_period_s / trace.sample_period_s + 1e-9)
     if every <= 1:
         return trace
@@ -978,6 +1017,7 @@ def cross_validate(
     """
     if len(traces) < 2:
         raise ValueError(f"cross-validation needs at least 2 files, got {len(traces)}")
+    require_diagnosable(traces, (), control_period_s)
     nominal = nominal or ModelConfig()
     folds = []
     for k, held in enumerate(traces):

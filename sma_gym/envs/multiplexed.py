@@ -16,7 +16,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from sma_gym._validation import require_action, require_choice, require_int_range, require_range
+from sma_gym._validation import require_action, require_actions, require_choice, require_int_range, require_range
 from sma_gym.electrical.multiplexer import SCHEMES, Multiplexer
 from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs import references as refs
@@ -395,9 +395,7 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
 
     def step(self, actions):
         m, n = self.num_envs, self.n
-        a = np.asarray(actions, dtype=np.float64).reshape(m, -1)
-        if a.shape[1] != n or not np.isfinite(a).all():
-            raise ValueError(f"actions = {actions!r}: expected finite values in [-1, 1], shape ({m}, {n})")
+        a = require_actions(actions, m, n)
         restart = self._ended.copy()
         duty = self.duty_for(a)
         if self.scheme == "shared_budget":

@@ -139,7 +139,15 @@ class Settings:
         if changes:
             m = m.with_actuator(**changes)
         reference = a["reference"]
-        names = (reference,) if isinstance(reference, (str, dict)) else tuple(reference)
+        if isinstance(reference, (str, dict)):
+            names = (reference,)
+        elif isinstance(reference, (list, tuple)):
+            names = tuple(reference)
+        else:
+            raise ValueError(
+                f"reference = {reference!r}: expected a reference name ({', '.join(refs.NAMED)}), a reference "
+                "dict, or a list of them"
+            )
         if not names:
             raise ValueError("reference = (): expected at least one reference name")
         for name in names:

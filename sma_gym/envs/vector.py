@@ -17,7 +17,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from sma_gym._validation import require_choice, require_int_range
+from sma_gym._validation import require_actions, require_choice, require_int_range
 from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs.conditions import CONDITION_INFO, CONDITION_INFO_KEYS, condition_info
 from sma_gym.envs.render import EpisodeHistory, EpisodePlot
@@ -269,12 +269,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             self._record(envs)
 
     def step(self, actions):
-        a = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
-        if a.shape[1] != 1:
-            raise ValueError(f"actions have shape {np.shape(actions)}: expected ({self.num_envs}, 1)")
-        if not np.isfinite(a).all():
-            bad = int(np.flatnonzero(~np.isfinite(a[:, 0]))[0])
-            raise ValueError(f"actions[{bad}] = {a[bad, 0]!r}: expected finite values in [-1, 1]")
+        a = require_actions(actions, self.num_envs)
         restart = self._ended.copy()
         if restart.any() and self.autoreset_mode == AutoresetMode.DISABLED:
             raise ValueError(
