@@ -435,6 +435,15 @@ def test_synth_rejects_out_of_range_options_and_writes_nothing(tmp_path, capsys,
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("name", ["labels.json", "trace.txt", "trace"])
+def test_synth_writes_only_csv_files(tmp_path, capsys, name):
+    from sma_gym.cli import main
+
+    assert main(["synth", "--out", str(tmp_path / name), "--duration", "5"]) == 2
+    assert "expected a .csv file name" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
 # --- item 10: loader and file gaps ------------------------------------------------------------------
 
 

@@ -243,6 +243,9 @@ def output_paths(path: Path) -> tuple[Path, Path, Path]:
 
 def check_outputs(path: Path, overwrite: bool) -> None:
     """Refuse (``ValueError``) unless all three outputs can be written; creates nothing."""
+    if path.suffix.lower() != ".csv":
+        # The sidecar and labels are named after the CSV: "x.json" would get "x.json.json".
+        raise ValueError(f"--out {str(path)!r}: expected a .csv file name (the measured-data format is CSV)")
     for target in output_paths(path):
         check_output_file(target, "--out", overwrite=overwrite)
 
