@@ -913,3 +913,12 @@ def test_a_file_of_text_names_the_first_bad_cells_and_counts_the_rest(tmp_path):
         load_trace(bad)
     lines = str(err.value).splitlines()
     assert len(lines) < 30 and "4980 more cells that are not numbers" in lines[-1]
+
+
+def test_algorithm_fractions_have_their_own_lower_ends():
+    from sma_gym_agents.training.config import check_model_kwargs
+
+    check_model_kwargs({"gamma": 0.99, "tau": 0.02, "gae_lambda": 0.0}, "here")  # lambda 0: one-step TD
+    for key, value in (("gamma", 0.0), ("tau", 0.0), ("gae_lambda", 1.5), ("gamma", float("nan")), ("tau", True)):
+        with pytest.raises(ValueError, match=rf"here: {key} = "):
+            check_model_kwargs({key: value}, "here")

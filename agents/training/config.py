@@ -454,8 +454,9 @@ class RunConfig:
         return f"{self.algo.upper()} agent"
 
 
-_UNIT_INTERVAL_KEYS = ("gamma", "tau", "gae_lambda")
-"""Algorithm keywords that are fractions in (0, 1]: a discount above 1 makes returns diverge."""
+_UNIT_INTERVAL_KEYS = {"gamma": False, "tau": False, "gae_lambda": True}
+"""Algorithm keywords that are fractions up to 1 (a discount above 1 makes returns diverge),
+each with whether 0 is allowed (GAE's lambda = 0 is one-step TD; tau = 0 never updates)."""
 _POSITIVE_KEYS = ("learning_rate", "batch_size", "buffer_size", "n_steps", "n_epochs", "train_freq")
 
 
@@ -463,10 +464,13 @@ def check_model_kwargs(model_kwargs: dict[str, Any], where: str) -> None:
     """Refuse values of the algorithm's common keywords that stable-baselines3 accepts but
     cannot learn with (``gamma`` 2), or refuses only once the run folder exists; a
     ``ValueError`` naming the key, its value and the range."""
-    for key in _UNIT_INTERVAL_KEYS:
+    for key, zero_allowed in _UNIT_INTERVAL_KEYS.items():
         value = model_kwargs.get(key)
-        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value <= 1):
-            raise ValueError(f"{where}: {key} = {value!r}: expected a number in (0, 1]")
+        if value is None:
+            continue
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if not (number and (0 <= value if zero_allowed else 0 < value) and value <= 1):
+            raise ValueError(f"{where}: {key} = {value!r}: expected a number in {'[0' if zero_allowed else '(0'}, 1]")
     for key in _POSITIVE_KEYS:
         value = model_kwargs.get(key)
         if isinstance(value, (int, float)) and not isinstance(value, bool) and not value > 0:
