@@ -102,12 +102,30 @@ def _evaluate(args: argparse.Namespace) -> int:
     for b in baselines or []:
         evaluation.baseline(b)
     for policy in args.policy or []:
-        load_policy(policy)  # card, hash and zip checked now, not after the baselines ran
+        agent = load_policy(policy)  # card, hash and zip checked now, not after the baselines ran
+        _require_scored(policy, agent.env_id, experiments)
     if args.out is None:
         return evaluate(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
     check_output_folder(args.out)
     with locked_folder(args.out):
         return evaluate(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
+
+
+def _require_scored(policy: str, env_id: str, experiments: Sequence[str]) -> None:
+    """Refuse a ``--policy`` that none of the chosen experiments would run: it would be
+    left out of the report without a word."""
+    runs = evaluation.AGENT_EXPERIMENTS.get(env_id, ())
+    if any(e in runs for e in experiments):
+        return
+    if not runs:
+        raise ValueError(
+            f"--policy {policy!r}: trained on {env_id}, which no experiment of sma-gym evaluate scores "
+            "(train.py's results.md scores it over the chapter-7 conditions)"
+        )
+    raise ValueError(
+        f"--policy {policy!r}: trained on {env_id}, which only the experiment(s) {', '.join(runs)} score; "
+        f"--experiments {','.join(experiments)} would leave it out: add {runs[0]} to --experiments"
+    )
 
 
 def evaluate(

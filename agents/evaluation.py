@@ -891,6 +891,16 @@ def default_entries(self_sensing: bool = False) -> list[PolicyEntry]:
 EXPERIMENTS = ("6.1", "7", "8", "9", "self-sensing")
 
 
+AGENT_EXPERIMENTS: dict[str, tuple[str, ...]] = {
+    "SMATracking-v0": ("6.1", "7", "8"),
+    "SMASelfSensing-v0": ("self-sensing",),
+    "SMAMultiplexed-v0": ("9",),
+    "SMARobust-v0": (),
+}
+"""Which experiments of :func:`evaluate` score an agent trained on each env (a robustness
+agent is scored by its training run's comparison, over the chapter-7 conditions)."""
+
+
 def evaluate(
     agents: Sequence[AgentPolicy] = (),
     experiments: Iterable[str] = EXPERIMENTS,
@@ -903,10 +913,14 @@ def evaluate(
         if e not in EXPERIMENTS:
             raise ValueError(f"experiment = {e!r}: expected one of {', '.join(EXPERIMENTS)}")
     results = Results()
-    agent_entries = [agent_entry(a) for a in agents if a.env_id != "SMAMultiplexed-v0"]
-    bank_agents = [bank_agent_entry(a) for a in agents if a.env_id == "SMAMultiplexed-v0"]
-    tracking_agents = [a for a in agent_entries if a.env_id == "SMATracking-v0"]
-    sensing_agents = [a for a in agent_entries if a.env_id == "SMASelfSensing-v0"]
+
+    def scored_in(experiment: str, env_id: str) -> bool:
+        return experiment in AGENT_EXPERIMENTS.get(env_id, ())
+
+    agent_entries = [agent_entry(a) for a in agents if not scored_in("9", a.env_id)]
+    bank_agents = [bank_agent_entry(a) for a in agents if scored_in("9", a.env_id)]
+    tracking_agents = [a for a in agent_entries if scored_in("6.1", a.env_id)]
+    sensing_agents = [a for a in agent_entries if scored_in("self-sensing", a.env_id)]
     base = list(baselines) if baselines is not None else default_entries()
     if "6.1" in experiments:
         run_table_6_1(base + tracking_agents, results, seeds)

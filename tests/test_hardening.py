@@ -922,3 +922,19 @@ def test_algorithm_fractions_have_their_own_lower_ends():
     for key, value in (("gamma", 0.0), ("tau", 0.0), ("gae_lambda", 1.5), ("gamma", float("nan")), ("tau", True)):
         with pytest.raises(ValueError, match=rf"here: {key} = "):
             check_model_kwargs({key: value}, "here")
+
+
+def test_evaluate_refuses_an_agent_that_no_chosen_experiment_scores(tmp_path, capsys, monkeypatch):
+    import sma_gym_agents.commands
+    from sma_gym.cli import main
+    from sma_gym_agents.trained import save_policy
+
+    monkeypatch.setattr(
+        sma_gym_agents.commands, "evaluate", lambda *a, **k: (_ for _ in ()).throw(AssertionError("work"))
+    )
+    path = save_policy(_tiny_model(), tmp_path / "agent.zip", CARD)  # trained on SMATracking-v0
+    assert main(["evaluate", "--experiments", "self-sensing,9", "--policy", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "only the experiment(s) 6.1, 7, 8 score" in err and "add 6.1 to --experiments" in err
+    with pytest.raises(AssertionError, match="work"):  # a chosen experiment scores it: the work starts
+        main(["evaluate", "--experiments", "8", "--policy", str(path)])
