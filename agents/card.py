@@ -41,9 +41,12 @@ CARD_SUFFIX = ".json"
 CARD_ALGOS = ("SAC", "PPO", "TD3")
 """Algorithms a card may name (stable-baselines3 class names)."""
 
-CARD_ENV_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0", "SMAMultiplexed-v0")
-"""Env ids a card may name: those train.py trains on and ``sma-gym evaluate`` scores (an agent
-of any other id would be silently left out of every table)."""
+BANK_ENV_ID = "SMAMultiplexed-v0"
+"""The env whose agent is one policy shared by every actuator of the bank: its model sees
+per-actuator rows (:mod:`sma_gym_agents.bank`), not the env's observation."""
+CARD_ENV_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0", BANK_ENV_ID)
+"""Env ids a card may name: those train.py trains on (which experiments of ``sma-gym
+evaluate`` score each: :data:`sma_gym_agents.evaluation.AGENT_EXPERIMENTS`)."""
 
 
 ALLOCATIONS = ("proportional", "priority")

@@ -48,7 +48,7 @@ import numpy as np
 
 from sma_gym.electrical.multiplexer import SCHEMES
 from sma_gym_agents.bank import bank_policy
-from sma_gym_agents.card import ALLOCATIONS
+from sma_gym_agents.card import ALLOCATIONS, BANK_ENV_ID
 from sma_gym_agents.controllers import (
     ALL_SPECS,
     PID,
@@ -894,7 +894,7 @@ EXPERIMENTS = ("6.1", "7", "8", "9", "self-sensing")
 AGENT_EXPERIMENTS: dict[str, tuple[str, ...]] = {
     "SMATracking-v0": ("6.1", "7", "8"),
     "SMASelfSensing-v0": ("self-sensing",),
-    "SMAMultiplexed-v0": ("9",),
+    BANK_ENV_ID: ("9",),
     "SMARobust-v0": (),
 }
 """Which experiments of :func:`evaluate` score an agent trained on each env (a robustness

@@ -18,7 +18,7 @@ import numpy as np
 
 import sma_gym  # noqa: F401  (registers the ids)
 from sma_gym._io import atomic_path
-from sma_gym_agents.card import PolicyCard
+from sma_gym_agents.card import BANK_ENV_ID, PolicyCard
 from sma_gym_agents.history import HistoryFeatures
 from sma_gym_agents.residual import ResidualStep
 
@@ -155,9 +155,6 @@ def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
     if card.env_id != BANK_ENV_ID:  # a bank model sees per-actuator rows (sma_gym_agents.bank)
         _require_card_fits_model(policy, str(path))
     return policy
-
-
-BANK_ENV_ID = "SMAMultiplexed-v0"
 
 
 def _require_card_fits_model(policy: AgentPolicy, path: str) -> None:

@@ -18,7 +18,14 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from sma_gym_agents.card import ALLOCATIONS, CARD_SUFFIX, FILTER_S_EXPECTED, PolicyCard, is_filter_time_constant
+from sma_gym_agents.card import (
+    ALLOCATIONS,
+    BANK_ENV_ID,
+    CARD_SUFFIX,
+    FILTER_S_EXPECTED,
+    PolicyCard,
+    is_filter_time_constant,
+)
 from sma_gym_agents.controllers import ALL_SPECS, spec_by_label
 from sma_gym_agents.history import HISTORIES, HistoryFeatures
 
@@ -34,7 +41,7 @@ EVAL_FREQ = {"sac": 20_000, "ppo": 250_000}
 RESIDUAL_WRAPPER = "sma_gym_agents.training.envs.ResidualVecEnv"
 HISTORY_WRAPPER = "sma_gym_agents.training.envs.HistoryVecEnv"
 BANK_WRAPPER = "sma_gym_agents.training.envs.BankVecEnv"
-BANK_ENV = "SMAMultiplexed-v0"
+BANK_ENV = BANK_ENV_ID
 """The env whose agent is one policy shared by every actuator of the bank (:data:`BANK_WRAPPER`)."""
 NOT_FOR_TRAIN_PY: dict[str, str] = {}
 """Env ids the hyperparameter files hold for RL Zoo only, with the reason (none since the bank trains)."""
