@@ -87,6 +87,20 @@ def require_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
     return value
 
 
+def _numeric_array(name: str, value: Any, expected: str) -> np.ndarray:
+    """``value`` as an int or float array (any shape), else a ``ValueError``: strings,
+    booleans, complex or object values are refused, never cast."""
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{name} = {value!r}: a string; {expected}")
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {value!r}: {expected}") from None
+    if a.dtype.kind not in "fiu":
+        raise ValueError(f"{name} of dtype {a.dtype}: {expected}")
+    return a
+
+
 def require_action(action: Any, n: int) -> np.ndarray:
     """An env action as a float64 array of shape ``(n,)``, or a ``ValueError`` naming the expected shape.
 
@@ -104,14 +118,7 @@ def require_action(action: Any, n: int) -> np.ndarray:
         elif np.isfinite(a).all():
             return a
     expected = f"expected a float array of shape ({n},) (dtype float32 or float64) with finite values in [-1, 1]"
-    if isinstance(action, (str, bytes)):
-        raise ValueError(f"action = {action!r}: a string; {expected}")
-    try:
-        a = np.asarray(action)
-    except (TypeError, ValueError):
-        raise ValueError(f"action = {action!r}: {expected}") from None
-    if a.dtype.kind not in "fiu":
-        raise ValueError(f"action = {action!r} (dtype {a.dtype}): {expected}")
+    a = _numeric_array("action", action, expected)
     if a.shape == () and n == 1:
         a = a.reshape(1)
     if a.shape != (n,):
@@ -135,14 +142,7 @@ def require_actions(actions: Any, num_envs: int, width: int = 1) -> np.ndarray:
             return a
     shapes = f"({m}, {n})" + (f" or ({m},)" if n == 1 else "")
     expected = f"expected a float array of shape {shapes} with finite values in [-1, 1]"
-    if isinstance(actions, (str, bytes)):
-        raise ValueError(f"actions = {actions!r}: a string; {expected}")
-    try:
-        a = np.asarray(actions)
-    except (TypeError, ValueError):
-        raise ValueError(f"actions = {actions!r}: {expected}") from None
-    if a.dtype.kind not in "fiu":
-        raise ValueError(f"actions of dtype {a.dtype}: {expected}")
+    a = _numeric_array("actions", actions, expected)
     if n == 1 and a.shape == (m,):
         a = a.reshape(m, 1)
     if a.shape != (m, n):
