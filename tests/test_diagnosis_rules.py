@@ -392,6 +392,45 @@ def test_the_report_names_a_pair_found_together_with_and_an_ambiguous_set_with_o
     assert "| 3 | none | sensor_lag in its 'second_order' form |" in text
 
 
+def test_the_staircase_shows_the_model_as_given_its_refit_and_what_each_round_did(tmp_path, monkeypatch):
+    """The gap plot steps through every stage the report's tables list (the nominal refit
+    included, which the first version left out), each labelled with what changed, its
+    figures in mm, and keeps the last round visible (a step plot ending at it drew none)."""
+    from types import SimpleNamespace
+
+    import matplotlib.axes
+
+    from sma_gym.diagnosis import report
+
+    def gap(fit_mm, held_mm):
+        return {"fit": {"position": fit_mm * 1e-3}, "heldout": {"position": held_mm * 1e-3}}
+
+    rounds = [
+        {"round": 1, "verdict": "effect", "effect": "transformation_spread", "gap": gap(0.5, 0.4)},
+        {"round": 2, "verdict": "ambiguous", "effect": ["latent_heat", "coulomb_friction"], "gap": gap(0.3, 0.2)},
+    ]
+    result = SimpleNamespace(
+        gap_before=gap(2.6, 3.0),
+        gap_nominal_refit=gap(1.5, 0.8),
+        rounds=rounds,
+        noise={"position": 1.4e-5},
+        carried="latent_heat",
+    )
+    drawn = []
+    original = matplotlib.axes.Axes.stairs
+    monkeypatch.setattr(
+        matplotlib.axes.Axes,
+        "stairs",
+        lambda ax, values, edges, **kw: drawn.append((values, edges)) or original(ax, values, edges, **kw),
+    )
+    report._plot_rounds(result, tmp_path / "gap_by_round.png")
+    assert (tmp_path / "gap_by_round.png").stat().st_size > 0
+    assert [list(np.round(v, 6)) for v, _ in drawn] == [[2.6, 1.5, 0.5, 0.3], [3.0, 0.8, 0.4, 0.2]]
+    assert all(list(e) == [0, 1, 2, 3, 4] for _, e in drawn)  # one flat step per stage
+    labels = [report._round_label(result, r) for r in rounds]
+    assert labels == ["round 1\n+ transformation_spread", "round 2\nambiguous,\ncarries latent_heat"]
+
+
 def test_a_later_ambiguous_round_corrects_the_model_with_its_best_without_naming_it(monkeypatch):
     """Round 1 names X; round 2 is ambiguous between Y (best held out) and Z. Both improve on
     round 2's reference; only which one is open. The corrected model carries X and Y (round

@@ -185,21 +185,55 @@ def _file_lines(result: Diagnosis) -> list[str]:
     return lines + [""]
 
 
+def _round_label(result: Diagnosis, entry: dict[str, Any]) -> str:
+    """What a round did to the model, for the staircase's axis."""
+    names = entry["effect"] if isinstance(entry["effect"], list) else [entry["effect"]]
+    if entry["verdict"] in ("effect", "effects"):
+        added = "\n".join(f"+ {name}" for name in names)
+    elif entry["verdict"] == "ambiguous" and result.carried is not None and entry is result.rounds[-1]:
+        added = f"ambiguous,\ncarries {result.carried}"
+    else:
+        added = f"{entry['verdict']}:\nnothing added"
+    return f"round {entry['round']}\n{added}"
+
+
 def _plot_rounds(result: Diagnosis, path: Path) -> Path:
-    """The staircase: position RMS after each round, fitted and held-out data."""
-    fig, axes = new_figure(1, 1, size=(7, 4))
+    """The staircase: position RMS of the model as given, its refit, and after each round,
+    on the fitted and the held-out data, against twice the noise (log scale: the gap
+    shrinks by orders of magnitude towards the noise)."""
+    stages = [("nominal\nas given", result.gap_before), ("nominal\nrefit", result.gap_nominal_refit)]
+    stages += [(_round_label(result, r), r["gap"]) for r in result.rounds]
+    fig, axes = new_figure(1, 1, size=(max(7.0, 1.9 * len(stages)), 4.5))
     ax = axes[0, 0]
-    steps = ["nominal"] + [f"round {r['round']}" for r in result.rounds]
-    for label, style in (("fit", "o-"), ("heldout", "s--")):
-        values = [result.gap_before[label].get("position", math.nan)] + [
-            r["gap"][label].get("position", math.nan) for r in result.rounds
-        ]
-        ax.step(range(len(steps)), np.array(values) * 1e3, style, where="post", label=label)
+    edges = np.arange(len(stages) + 1)
+    values = {
+        label: np.array([gap.get(label, {}).get("position", math.nan) for _, gap in stages]) * 1e3
+        for label in ("fit", "heldout")
+    }
+    for label, style in (("fit", "-"), ("heldout", "--")):
+        if not np.all(np.isnan(values[label])):
+            ax.stairs(values[label], edges, baseline=None, ls=style, lw=2.0, label=label)
+    # Each stage's figures: the higher above its line, the lower below, so that close
+    # values stay legible.
+    for k in range(len(stages)):
+        pair = [v[k] for v in values.values() if np.isfinite(v[k])]
+        for value in pair:
+            above = value >= max(pair)
+            ax.annotate(
+                f"{value:.3g}",
+                (k + 0.5, value),
+                textcoords="offset points",
+                xytext=(0, 3 if above else -3),
+                ha="center",
+                va="bottom" if above else "top",
+                fontsize=7,
+            )
     noise = result.noise.get("position")
     if noise:
         ax.axhline(2 * noise * 1e3, color="k", lw=0.8, ls=":", label="2x noise")
-    ax.set_xticks(range(len(steps)), steps)
-    ax.set(ylabel="position RMS [mm]", title="Gap after each round")
+    ax.set_yscale("log")
+    ax.set_xticks(edges[:-1] + 0.5, [name for name, _ in stages], fontsize=8)
+    ax.set(xlim=(0, len(stages)), ylabel="position RMS [mm]", title="The gap after each round")
     ax.legend(fontsize=8)
     return save(fig, path)
 
