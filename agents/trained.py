@@ -28,7 +28,9 @@ class AgentPolicy:
     """A trained stable-baselines3 model plus what is needed to evaluate it like it trained.
 
     ``frame_stack`` is the number of stacked observations (SB3's ``VecFrameStack``) the
-    model expects; the evaluation harness wraps its env accordingly.
+    model expects; the evaluation harness wraps its env accordingly. Like the reference
+    controllers, it keeps state between calls (the residual's base controller, the history
+    features): pass ``episode_start`` or call :meth:`reset` after ``env.reset()``.
     """
 
     model: Any
@@ -58,6 +60,10 @@ class AgentPolicy:
         batch = obs[None, :] if single else obs
         if episode_start is not None:
             starts = np.asarray(episode_start, dtype=bool).reshape(-1)
+            if starts.size != len(batch):
+                raise ValueError(
+                    f"episode_start has {starts.size} entries: expected {len(batch)} (one per observation of the batch)"
+                )
         else:  # no flags: the first call starts an episode, later calls continue it
             starts = np.full(len(batch), self._features is None and self._residual is None)
         if self.residual is not None:
@@ -87,6 +93,7 @@ class AgentPolicy:
         return out
 
     def reset(self) -> None:
+        """Forget the base controller's and the history features' state (a new episode)."""
         self._features = None
         self._residual = None
 

@@ -19,7 +19,12 @@ def _fmt(value: Any) -> str:
 
 
 def require_finite(name: str, value: Any, unit: str = "") -> float:
-    """Return ``value`` as a float, or raise if it is not a finite number."""
+    """Return ``value`` as a float, or raise if it is not a finite number.
+
+    Strings are refused although ``float("10")`` works: a number that arrives as text (a
+    config value read without parsing) is a mistake to report, not to guess at."""
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{name} = {_fmt(value)}: expected a finite number{_unit(unit)}, not a string")
     try:
         number = float(value)
     except (TypeError, ValueError):
@@ -27,6 +32,15 @@ def require_finite(name: str, value: Any, unit: str = "") -> float:
     if not math.isfinite(number):
         raise ValueError(f"{name} = {_fmt(value)}: expected a finite number{_unit(unit)}")
     return number
+
+
+def require_options(options: Any) -> dict[str, Any]:
+    """``reset(options=...)``: a dict (a copy is returned) or ``None`` (an empty dict)."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise ValueError(f"reset options = {_fmt(options)}: expected a dict (or None)")
+    return dict(options)
 
 
 def require_positive(name: str, value: Any, unit: str = "") -> float:
@@ -64,7 +78,8 @@ def require_range(
     try:
         number = require_finite(name, value, unit)
     except ValueError:
-        raise ValueError(f"{name} = {_fmt(value)}: {expected}") from None
+        text = ", not a string" if isinstance(value, (str, bytes)) else ""
+        raise ValueError(f"{name} = {_fmt(value)}: {expected}{text}") from None
     below = number <= lower if lower_open else number < lower
     above = number >= upper if upper_open else number > upper
     if below or above:

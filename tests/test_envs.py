@@ -234,6 +234,45 @@ def test_robust_env_draws_conditions_from_its_ranges_and_reports_them():
     assert c["transformation_shift_k"] == 0.0
 
 
+@pytest.mark.parametrize(
+    "model, missing",
+    [
+        ("supply-20v", ["supply_voltage_v=20"]),
+        ("wire-0.5mm", ["wire_diameter_m=0.0005"]),
+        ("forced-convection", ["convection='natural'"]),
+        ("bench-0.5mm-ht", ["supply_voltage_v=", "wire_diameter_m=0.0005", "convection='natural'"]),
+    ],
+)
+def test_robust_env_refuses_to_draw_over_a_models_own_conditions_unasked(model, missing):
+    """The draws replaced a preset's 20 V by 5-15 V and a twin's 0.5 mm wire by 0.2-0.5 mm,
+    and cooled the fan-cooled preset 2.5x harder again (6.25x the standard's h0) while
+    labelling half the episodes "natural"; now the user says which is meant."""
+    with pytest.raises(ValueError, match="robustness env draws its conditions") as err:
+        make("SMARobust-v0", model=model)
+    for text in missing:
+        assert text in str(err.value)
+
+
+def test_robust_env_keeps_or_draws_a_models_conditions_as_the_kwargs_say():
+    from sma_gym.params import FORCED_CONVECTION_FACTOR
+
+    standard_h0 = make("SMARobust-v0", model="standard").unwrapped.sim.models[0].actuator.convection.h0_w_m2_k
+    fan = make("SMARobust-v0", model="forced-convection", convection="natural", spread=0.0)
+    fan.reset(seed=0)
+    h0 = fan.unwrapped.sim.models[0].actuator.convection.h0_w_m2_k
+    assert h0 == pytest.approx(standard_h0 * FORCED_CONVECTION_FACTOR)  # the model's own, not 6.25x
+    assert fan.unwrapped.condition["convection"] == "natural"
+    supply = make("SMARobust-v0", model="supply-20v", supply_voltage_v=20.0)
+    supply.reset(seed=0)
+    assert supply.unwrapped.sim.supply_voltage_v[0] == 20.0
+    drawn = make("SMARobust-v0", model="wire-0.5mm", wire_diameter_m=(0.2e-3, 0.5e-3))
+    drawn.reset(seed=0)
+    assert 0.2e-3 <= drawn.unwrapped.condition["wire_diameter_m"] <= 0.5e-3
+    as_array = make("SMARobust-v0", supply_voltage_v=np.array([5.0, 15.0]))  # a pair as an array, as a list
+    as_array.reset(seed=0)
+    assert 5.0 <= as_array.unwrapped.condition["supply_voltage_v"] <= 15.0
+
+
 def test_multiplexed_env_caps_each_actuator_at_one_nth_and_tracks_each_reference():
     env = make("SMAMultiplexed-v0", n_actuators=8, cycling_frequency_hz=2000.0)
     obs, info = env.reset(seed=0)

@@ -938,3 +938,193 @@ def test_evaluate_refuses_an_agent_that_no_chosen_experiment_scores(tmp_path, ca
     assert "only the experiment(s) 6.1, 7, 8 score" in err and "add 6.1 to --experiments" in err
     with pytest.raises(AssertionError, match="work"):  # a chosen experiment scores it: the work starts
         main(["evaluate", "--experiments", "8", "--policy", str(path)])
+
+
+# --- from a new user's try of the Python API (2026-11-25, second hunt) ------------------------------
+
+
+def _sb3_bank(num_envs: int = 3, **kwargs):
+    import gymnasium as gym
+
+    from sma_gym.envs.sb3 import SB3VecEnv
+
+    return SB3VecEnv(
+        gym.make_vec(
+            "sma_gym:SMAMultiplexed-v0",
+            num_envs=num_envs,
+            vectorization_mode="vector_entry_point",
+            max_episode_steps=30,
+            **kwargs,
+        )
+    )
+
+
+def test_the_bank_vector_env_hands_each_bank_its_own_scale_and_keeps_its_build_settings():
+    from stable_baselines3.common.evaluation import evaluate_policy
+
+    from sma_gym_agents import ControllerPolicy
+
+    venv = _sb3_bank(3)
+    scales = venv.get_attr("position_scale_m")
+    assert len(scales) == 3 and all(np.ndim(s) == 0 for s in scales)  # one number per bank
+    mean, _ = evaluate_policy(ControllerPolicy("PID", venv), venv, n_eval_episodes=3)  # was a broadcast error
+    assert np.isfinite(mean)
+    for name, value in (("control_period_s", 0.1), ("n", 7)):
+        with pytest.raises(ValueError, match=rf"set_attr\('{name}'\): fixed when the env is made"):
+            venv.set_attr(name, value)
+
+
+def test_sb3s_set_options_reach_the_native_vector_envs_at_the_next_reset_only():
+    import gymnasium as gym
+
+    from sma_gym.envs.sb3 import SB3VecEnv
+
+    venv = SB3VecEnv(gym.make_vec("sma_gym:SMATracking-v0", num_envs=3, vectorization_mode="vector_entry_point"))
+    venv.set_options({"reference": "report-sine"})
+    venv.reset()
+    assert [d["name"] for d in venv.venv.unwrapped.reference_description()] == ["report-sine"] * 3
+    venv.set_options([{"reference": "report-step"}, {}, {"reference": "report-step"}])
+    venv.seed(4)
+    venv.reset()
+    names = [d["name"] for d in venv.venv.unwrapped.reference_description()]
+    assert names[0] == names[2] == "report-step" and names[1] != "report-step"
+    venv.reset()  # options used once, as DummyVecEnv uses them
+    assert "report-step" not in [d["name"] for d in venv.venv.unwrapped.reference_description()]
+    bank = _sb3_bank(2, n_actuators=2)
+    bank.set_options({"references": ["report-step", "report-sine"]})
+    bank.reset()
+    assert [[d["name"] for d in b] for b in bank.venv.unwrapped.reference_description()] == [
+        ["report-step", "report-sine"]
+    ] * 2
+
+
+@pytest.mark.parametrize("env_id", ["SMATracking-v0", "SMAMultiplexed-v0"])
+def test_a_native_vector_env_refuses_a_step_or_a_reference_before_its_first_reset(env_id):
+    import gymnasium as gym
+    from gymnasium.error import ResetNeeded
+
+    venv = gym.make_vec(
+        f"sma_gym:{env_id}", num_envs=2, vectorization_mode="vector_entry_point", position_noise_std_m=1e-5
+    )
+    with pytest.raises(ResetNeeded, match="never reset"):
+        venv.step(venv.action_space.sample())  # ran an episode without a reference; with noise, AttributeError
+    with pytest.raises(ResetNeeded, match="call reset"):
+        venv.unwrapped.reference_description()
+    venv.reset(seed=0, options={"reset_mask": np.array([True, False])})
+    with pytest.raises(ResetNeeded, match=r"\[1\] were never reset"):
+        venv.step(venv.action_space.sample())
+    venv.reset(seed=0)
+    venv.step(venv.action_space.sample())
+
+
+@pytest.mark.parametrize("options", [["reference"], "report-step", 3])
+def test_reset_options_that_are_not_a_dict_are_refused_by_name(options):
+    import gymnasium as gym
+
+    for env in (
+        gym.make("sma_gym:SMATracking-v0"),
+        gym.make("sma_gym:SMAMultiplexed-v0"),
+        gym.make_vec("sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="vector_entry_point"),
+    ):
+        with pytest.raises(ValueError, match="reset options = .*expected a dict"):
+            env.reset(seed=0, options=options)
+
+
+def test_a_banks_references_must_be_a_list_of_n_and_not_beside_reference():
+    import gymnasium as gym
+
+    env = gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=4)
+    with pytest.raises(ValueError, match=r"options\['references'\] = 'step': expected a list of 4"):
+        env.reset(seed=0, options={"references": "step"})  # was read as the letters 's', 't', 'e', 'p'
+    with pytest.raises(ValueError, match="both 'reference' and 'references'"):
+        env.reset(seed=0, options={"reference": "report-step", "references": ["step"] * 4})
+
+
+def test_numbers_given_as_text_are_refused_not_parsed():
+    import gymnasium as gym
+
+    for kwargs in ({"control_period_s": "0.01"}, {"energy_weight": "1"}):
+        with pytest.raises(ValueError, match="not a string"):
+            gym.make("sma_gym:SMATracking-v0", **kwargs)
+    with pytest.raises(ValueError, match="not a string"):
+        gym.make("sma_gym:SMARobust-v0", supply_voltage_v="10")
+
+
+def test_a_ramp_whose_second_segment_starts_before_the_first_ends_is_refused():
+    import gymnasium as gym
+
+    env = gym.make("sma_gym:SMATracking-v0")
+    spec = {"kind": "ramp", "t1_s": 0.5, "level1_m": 7e-3, "d1_s": 2.0, "t2_s": 1.5, "level2_m": 1e-3}
+    with pytest.raises(ValueError, match=r"t2_s = 1.5: expected a time >= t1_s \+ d1_s = 2.5 s"):
+        env.reset(seed=0, options={"reference": spec})
+    env.reset(seed=0, options={"reference": {**spec, "t2_s": 2.5}})
+
+
+def test_make_vec_names_the_variant_as_fixed_by_the_id():
+    import gymnasium as gym
+
+    with pytest.raises(ValueError, match="variant = 'robust': fixed by the id"):
+        gym.make_vec("sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="vector_entry_point", variant="robust")
+
+
+def test_write_trace_neither_keeps_a_stale_sidecar_nor_overwrites_one_unasked(tmp_path):
+    from sma_gym.data import load_trace
+    from sma_gym.data.measured import MeasuredTrace, sidecar_write_path, write_trace
+
+    t = np.arange(200) * 1e-3
+    with_conditions = MeasuredTrace(
+        path="x.csv", t=t, duty=np.full(200, 0.2), position=np.zeros(200), conditions={"supply_voltage_v": 24.0}
+    )
+    plain = MeasuredTrace(path="x.csv", t=t, duty=np.full(200, 0.2), position=np.zeros(200))
+    path = write_trace(tmp_path / "x.csv", with_conditions)
+    write_trace(path, plain, overwrite=True)
+    assert load_trace(path).conditions == {} and not sidecar_write_path(path).exists()
+    # A sidecar of another file's name is a user's file: never replaced without overwrite=True.
+    other = tmp_path / "y.csv"
+    sidecar_write_path(other).write_text('{"supply_voltage_v": 5.0}')
+    with pytest.raises(FileExistsError, match=r"y\.csv\.json exists"):
+        write_trace(other, with_conditions)
+    assert sidecar_write_path(other).read_text() == '{"supply_voltage_v": 5.0}'
+    # <stem>.json would be read back as the sidecar of a trace without conditions.
+    (tmp_path / "z.json").write_text('{"supply_voltage_v": 5.0}')
+    with pytest.raises(FileExistsError, match="would read it as the sidecar"):
+        write_trace(tmp_path / "z.csv", plain)
+
+
+def test_policies_refuse_an_episode_start_of_the_wrong_length():
+    import gymnasium as gym
+
+    from sma_gym_agents import ControllerPolicy
+
+    env = gym.make("sma_gym:SMATracking-v0")
+    obs, _ = env.reset(seed=0)
+    policy = ControllerPolicy("PID", env)
+    batch = np.stack([obs, obs])
+    policy.predict(batch, episode_start=np.array([True, True]))
+    with pytest.raises(ValueError, match="episode_start has 3 entries: expected 2"):
+        policy.predict(batch, episode_start=np.array([True, False, True]))
+
+
+def test_a_controller_policy_keeps_state_until_reset_as_its_docstring_says():
+    import gymnasium as gym
+
+    from sma_gym_agents import ControllerPolicy
+
+    env = gym.make("sma_gym:SMATracking-v0", reference="report-step", max_episode_steps=150)
+    policy = ControllerPolicy("PID", env)
+
+    def episode(reset: bool) -> float:
+        obs, _ = env.reset(seed=0)
+        if reset:
+            policy.reset()
+        total, done = 0.0, False
+        while not done:
+            action, _ = policy.predict(obs)
+            obs, reward, terminated, truncated, _ = env.step(action)
+            total += reward
+            done = terminated or truncated
+        return total
+
+    first = episode(reset=True)
+    assert episode(reset=False) != pytest.approx(first)  # carried over: why the docs say to reset
+    assert episode(reset=True) == pytest.approx(first)

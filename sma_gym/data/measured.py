@@ -375,10 +375,25 @@ def load_traces(paths: Sequence[str | Path], min_rows: int = 2) -> list[Measured
 
 
 def write_trace(path: str | Path, trace: MeasuredTrace, *, overwrite: bool = False) -> Path:
-    """Write a trace in the measured format (and its sidecar if it has conditions)."""
+    """Write a trace in the measured format (and its sidecar if it has conditions).
+
+    ``overwrite`` replaces the CSV and the sidecar this function writes (``<file>.json``),
+    and removes that sidecar when the new trace has no conditions (it would be read back
+    with the new data). Without it, an existing CSV or sidecar is refused. A ``<stem>.json``
+    beside the file, which :func:`load_trace` also reads as a sidecar, is never touched:
+    it is refused unless the new trace's sidecar takes precedence over it."""
     p = Path(path)
-    if p.exists() and not overwrite:
-        raise FileExistsError(f"{p} exists; refusing to overwrite it")
+    ours = sidecar_write_path(p)
+    if not overwrite:
+        for existing in (p, ours):
+            if existing.exists():
+                raise FileExistsError(f"{existing} exists; refusing to overwrite it (overwrite=True replaces it)")
+    other = p.with_suffix(".json")
+    if not trace.conditions and other != p and other.exists():
+        raise FileExistsError(
+            f"{other} exists and load_trace would read it as the sidecar of {p.name}, whose trace has no "
+            "conditions; remove or rename it, or write the trace under another name"
+        )
     cols = ["t", "duty", "position"]
     arrays = [trace.t, trace.duty, trace.position]
     for name in OPTIONAL:
@@ -393,7 +408,9 @@ def write_trace(path: str | Path, trace: MeasuredTrace, *, overwrite: bool = Fal
         writer.writerow(["" if not math.isfinite(v) else repr(float(v)) for v in row])
     # Sidecar first, then the CSV (each atomic): a CSV never appears without its conditions.
     if trace.conditions:
-        write_json(sidecar_write_path(p), dict(trace.conditions))
+        write_json(ours, dict(trace.conditions))
+    else:
+        ours.unlink(missing_ok=True)  # a stale one would be read back with the new data
     write_text(p, buffer.getvalue())
     return p
 

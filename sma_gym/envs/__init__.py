@@ -46,8 +46,10 @@ class ImportableSpec:
 
     ``gymnasium.make("sma_gym:SMATracking-v0")`` strips the prefix from the spec it stores,
     so a logged ``env.spec.id`` could not be made again in a process that has not imported
-    ``sma_gym``. Gymnasium resolves ``module:id`` everywhere (make, make_vec, spec), so the
-    prefixed id is the one form that works in any process. Ids registered by users on our
+    ``sma_gym``. ``gymnasium.make`` and ``make_vec`` resolve ``module:id`` (they import the
+    module), so the prefixed id is the one form they take in any process;
+    ``gymnasium.spec`` and ``gymnasium.registry`` do not import and take the bare id
+    (``env.spec.id.split(":")[-1]``) once ``sma_gym`` is imported. Ids registered by users on our
     entry points are left as they are (their module is unknown here).
     """
 

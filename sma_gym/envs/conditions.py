@@ -26,6 +26,8 @@ CONVECTIONS = ("natural", "forced")
 
 
 def _as_range(name: str, value: Any, lower: float, upper: float, unit: str) -> tuple[float, float]:
+    if isinstance(value, np.ndarray) and value.ndim == 1:
+        value = value.tolist()  # a (low, high) pair given as an array
     if isinstance(value, (tuple, list)):
         if len(value) != 2:
             raise ValueError(
@@ -63,7 +65,8 @@ class Conditions:
         spread: Any = None,
     ) -> Conditions:
         """Validate env kwargs: numbers fix a condition, (low, high) pairs randomise it,
-        ``convection`` is ``"natural"``, ``"forced"`` or ``"random"``; ``None`` keeps the default."""
+        ``convection`` is ``"natural"`` (the model's own), ``"forced"`` (the model's times
+        ``FORCED_CONVECTION_FACTOR``, the report's fan) or ``"random"``; ``None`` keeps the default."""
         default = cls()
         if convection is None or convection == "random":
             conv: tuple[str, ...] = default.convection if convection is None else CONVECTIONS
@@ -128,12 +131,50 @@ class Conditions:
         return replace(base, actuator=actuator), condition
 
 
+def require_no_silent_override(model: ModelConfig, reference: ModelConfig, given: set[str]) -> None:
+    """Refuse a ``model`` whose own supply, wire or convection the draws would change unasked.
+
+    The draws set the supply voltage and the wire diameter outright and multiply the
+    model's convection by the fan's factor for "forced"; for the default model that is the
+    report's chapter 7. A model that differs from ``reference`` (the env's default model)
+    in one of those is the user's own actuator: drawing over it silently replaced a 20 V
+    supply by 5-15 V, a twin's 0.5 mm wire by 0.2-0.5 mm, and cooled a fan-cooled model
+    2.5x harder again while labelling the draw "natural". So the user says which they mean,
+    by passing the condition's kwarg (a number or "natural" keeps it; a range or "random"
+    draws it)."""
+    p, r = model.actuator, reference.actuator
+    problems = []
+    if "supply_voltage_v" not in given and p.driver.supply_voltage_v != r.driver.supply_voltage_v:
+        v = p.driver.supply_voltage_v
+        problems.append(
+            f"its supply {v:g} V would be drawn from {Conditions().supply_voltage_v} V: pass supply_voltage_v={v:g} to "
+            "keep it or a (low, high) range to draw it"
+        )
+    if "wire_diameter_m" not in given and p.wire.diameter_m != r.wire.diameter_m:
+        d = p.wire.diameter_m
+        problems.append(
+            f"its wire diameter {d:g} m would be drawn from {Conditions().wire_diameter_m} m: pass wire_diameter_m={d:g} "
+            "to keep it or a (low, high) range to draw it"
+        )
+    if "convection" not in given and p.convection != r.convection:
+        problems.append(
+            "its convection differs from the default model's, and a draw of 'forced' multiplies it by "
+            f"{FORCED_CONVECTION_FACTOR:g} (the report's fan): pass convection='natural' to keep it as it is, or "
+            "'random' / 'forced' to add the fan"
+        )
+    if problems:
+        raise ValueError(
+            f"model = {model.actuator.name!r}: the robustness env draws its conditions at every reset, and "
+            + "; ".join(problems)
+        )
+
+
 CONDITION_KWARGS = tuple(f.name for f in fields(Conditions))
 """The env kwargs that set the randomised conditions (only the robustness env takes them)."""
 
 CONDITION_INFO = {
     "condition_supply_voltage_v": "supply voltage [V]",
-    "condition_forced_convection": "forced (True) or natural convection (bool)",
+    "condition_forced_convection": "forced: the model's convection times the report's fan factor (True), or natural: the model's own (bool)",
     "condition_wire_diameter_m": "wire diameter [m]",
     "condition_convection_scale": "spread factor of the convection coefficient [-]",
     "condition_transformation_shift_k": "shift of the transformation temperatures [K]",

@@ -64,7 +64,8 @@ ACTION = """
 REWARD = """
     Per actuator and step, *r = -|x_true - r(t)| / stroke - energy_weight P_el / P_full*,
     with `P_el` the mean electrical power of the step and `P_full = V^2 / R_cold` the power
-    at duty 1 (so the energy term is at most `energy_weight`); `stroke` is the usable
+    at duty 1 into the cold wire (the hot wire's resistance is lower, so at duty 1 the
+    energy term reaches up to 1.21 `energy_weight` on the presets); `stroke` is the usable
     stroke (the driver's end-of-travel position, else eps0 l0). The reward uses the true
     position, whatever the agent sees.
     """
@@ -122,6 +123,13 @@ MODEL_CHANGE = """
       results. 0.2's minor loops, onset and energy come back with a `model` whose wire has
       `minor_loop_law="play"`, `transformation_spread_k=0` and `latent_heat_j_kg=0` (not
       bit for bit: h0 and the resistivity were calibrated with the new terms).
+    """
+
+ROBUST_MODEL_CHECK = """
+    * main (unreleased), `SMARobust-v0` only: a `model` whose supply, wire diameter or
+      convection differs from the default model's raises `ValueError` unless the matching
+      condition kwarg is given; before, the draws replaced its supply and diameter and
+      multiplied an already fan-cooled convection by the fan's factor again, unasked.
     """
 
 VERSION_0_2 = (

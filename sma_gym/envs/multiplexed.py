@@ -16,13 +16,20 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from sma_gym._validation import require_action, require_actions, require_choice, require_int_range, require_range
+from sma_gym._validation import (
+    require_action,
+    require_actions,
+    require_choice,
+    require_int_range,
+    require_options,
+    require_range,
+)
 from sma_gym.electrical.multiplexer import SCHEMES, Multiplexer
 from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs import references as refs
 from sma_gym.envs.render import EpisodeRendering
 from sma_gym.envs.single import TRACKING, Settings, SMAEnv, keyword_settings, spell_out_settings, with_settings
-from sma_gym.envs.vector import reset_arguments
+from sma_gym.envs.vector import UnstartedEnvs, reset_arguments
 from sma_gym.simulator import Simulator
 
 DEFAULT_N_ACTUATORS = 4
@@ -35,6 +42,29 @@ DEFAULT_SCHEME = "fixed_slots"
 _SETTINGS = keyword_settings(SMAEnv.__init__, exclude=("pwm_mode",))
 """The single envs' settings (``model``, ``reference``, ...) but ``pwm_mode`` (always resolved
 here): taken as ``**settings`` and shown in the signature, so one added there reaches this env."""
+
+
+def reference_specs(options: dict[str, Any], n: int, also: tuple[str, ...] = ()) -> list[Any]:
+    """One reference spec per actuator from a bank's reset options: ``references`` (a list
+    or tuple of n), or ``reference`` for all of them, or neither (drawn); ``also``: the
+    other keys the caller takes (named in the error for an unknown key)."""
+    allowed = ("reference", "references", *also)
+    unknown = set(options) - set(allowed)
+    if unknown:
+        raise ValueError(
+            f"reset options {sorted(unknown)}: expected {', '.join(map(repr, allowed))} "
+            "('references': one per actuator)"
+        )
+    specs = options.get("references")
+    if specs is None:
+        return [options.get("reference")] * n
+    if "reference" in options:
+        raise ValueError("reset options: both 'reference' and 'references' given; expected one of them")
+    if not isinstance(specs, (list, tuple)):
+        raise ValueError(f"options['references'] = {specs!r}: expected a list of {n} references (one per actuator)")
+    if len(specs) != n:
+        raise ValueError(f"options['references'] has {len(specs)} entries: expected {n}")
+    return list(specs)
 
 
 class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
@@ -172,17 +202,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         self.sim.rng = self.np_random
-        options = {} if options is None else options
-        unknown = set(options) - {"reference", "references"}
-        if unknown:
-            raise ValueError(
-                f"reset options {sorted(unknown)}: expected 'reference' or 'references' (one per actuator)"
-            )
-        specs = options.get("references")
-        if specs is None:
-            specs = [options.get("reference")] * self.n
-        if len(specs) != self.n:
-            raise ValueError(f"options['references'] has {len(specs)} entries: expected {self.n}")
+        specs = reference_specs(require_options(options), self.n)
         strokes = self.sim.usable_stroke_m
         for j, spec in enumerate(specs):
             ref = refs.resolve(spec, self.np_random, float(strokes[j]), self.settings.reference)
@@ -203,7 +223,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
 
     def reference_description(self) -> list[dict[str, Any]]:
         """Each actuator's reference (kind, name, parameters; keys depend on the kind)."""
-        return [ref.describe() for ref in self.task.references]
+        return self.task.describe_references()
 
     def step(self, action):
         a = require_action(action, self.n)
@@ -278,6 +298,29 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
+    FIXED_AT_MAKE = (
+        "control_period_s",
+        "settings",
+        "sim",
+        "task",
+        "num_envs",
+        "n",
+        "scheme",
+        "multiplexer",
+        "feature_names",
+        "duty_range",
+        "observation_space",
+        "action_space",
+        "single_observation_space",
+        "single_action_space",
+        "autoreset_mode",
+    )
+    """Attributes the simulator, the driver or the spaces were built from: adapters refuse
+    to set them (the simulator would go on stepping with the old value)."""
+
+    PER_ENV = ("position_scale_m", "resistance_scale_ohm")
+    """One value per bank (sequence of length ``num_envs``): adapters hand bank i its own."""
+
     def __init__(
         self,
         num_envs: int,
@@ -328,6 +371,7 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
         self._steps = np.zeros(m, dtype=np.int64)
         self._ended = np.zeros(m, dtype=bool)
         self._rngs: list[np.random.Generator | None] = [None] * m
+        self._unstarted = UnstartedEnvs(m)
         self._all = np.arange(m * n, dtype=np.int64)
         self._evaluate = self.task.bind(self.sim, self._all, self._obs, self._reward, self._term, self._ref)
 
@@ -351,10 +395,8 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
 
     def reference_description(self) -> list[list[dict[str, Any]]]:
         """Each bank's references (one list per bank, one dict per actuator)."""
-        return [
-            [ref.describe() for ref in self.task.references[b * self.n : (b + 1) * self.n]]
-            for b in range(self.num_envs)
-        ]
+        described = self.task.describe_references()
+        return [described[b * self.n : (b + 1) * self.n] for b in range(self.num_envs)]
 
     def reset(self, *, seed: int | Sequence[int | None] | None = None, options: dict | None = None):
         """Reset all banks, or those in ``options["reset_mask"]``; bank b gets ``seed + b``."""
@@ -369,14 +411,7 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
 
     def _reset_banks(self, banks: np.ndarray, options: dict) -> None:
         n = self.n
-        unknown = set(options) - {"reference", "references"}
-        if unknown:
-            raise ValueError(f"reset options {sorted(unknown)}: expected 'reference', 'references' or 'reset_mask'")
-        specs = options.get("references")
-        if specs is None:
-            specs = [options.get("reference")] * n
-        if len(specs) != n:
-            raise ValueError(f"options['references'] has {len(specs)} entries: expected {n}")
+        specs = reference_specs(options, n, also=("reset_mask",))
         for b in banks:
             if self._rngs[b] is None:
                 self._rngs[b], _ = seeding.np_random(None)
@@ -391,11 +426,13 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
                 self.task.reset_actuator(int(i), self.sim)
             self._steps[b] = 0
         self._ended[banks] = False
+        self._unstarted.started(banks)
         self._evaluate()
 
     def step(self, actions):
         m, n = self.num_envs, self.n
         a = require_actions(actions, m, n)
+        self._unstarted.require_none()
         restart = self._ended.copy()
         duty = self.duty_for(a)
         if self.scheme == "shared_budget":

@@ -308,6 +308,13 @@ def _from_mapping(spec: Mapping[str, Any], rng: np.random.Generator, stroke_m: f
             raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a finite phase (rad)")
         elif key == "amplitude_m" and not (math.isfinite(value) and value >= 0.0):
             raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a finite amplitude >= 0 m")
+    if kind == "ramp" and values["t2_s"] < values["t1_s"] + values["d1_s"]:
+        # The second ramp starts from level1_m: starting it before the first one ends
+        # would make the reference jump.
+        raise ValueError(
+            f"reference 'ramp' t2_s = {values['t2_s']!r}: expected a time >= t1_s + d1_s = "
+            f"{values['t1_s'] + values['d1_s']!r} s (the end of the first ramp), or inf (never)"
+        )
     if kind == "sine":
         # The sine spans offset +- amplitude: both ends must lie within the stroke.
         _check_level(kind, "offset_m - amplitude_m", values["offset_m"] - values["amplitude_m"], stroke_m)

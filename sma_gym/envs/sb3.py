@@ -49,6 +49,14 @@ except ModuleNotFoundError as err:
 _PER_STEP_INFO = tuple(INFO)
 
 
+def _same(a: dict, b: dict) -> bool:
+    """Whether two options dicts are equal (one holding arrays compares by identity)."""
+    try:
+        return bool(a == b)
+    except ValueError:
+        return a is b
+
+
 class SB3VecEnv(VecEnv):
     """Wrap a Gymnasium vector env (any autoreset mode) for stable-baselines3, with episode stats."""
 
@@ -69,8 +77,26 @@ class SB3VecEnv(VecEnv):
         self._lengths = np.zeros(self.num_envs, dtype=np.int64)
 
     def reset(self):
-        obs, _ = self.venv.reset(seed=self._seed)
+        """Reset every sub-env, with the seed of :meth:`seed` and the options of SB3's
+        ``set_options`` (both used once, as ``DummyVecEnv`` uses them)."""
+        options = list(self._options)
+        if all(_same(o, options[0]) for o in options):
+            obs, _ = self.venv.reset(seed=self._seed, options=dict(options[0]) or None)
+        else:
+            # Sub-envs with different options: one masked reset per distinct options dict;
+            # the last one returns every sub-env's first observation.
+            seeds = [None if self._seed is None else self._seed + i for i in range(self.num_envs)]
+            todo = np.ones(self.num_envs, dtype=bool)
+            while todo.any():
+                first = options[int(np.flatnonzero(todo)[0])]
+                group = todo & np.array([_same(o, first) for o in options])
+                obs, _ = self.venv.reset(
+                    seed=[s if g else None for s, g in zip(seeds, group)],
+                    options={**first, "reset_mask": group},
+                )
+                todo &= ~group
         self._seed = None
+        self._reset_options()
         self._returns[:] = 0.0
         self._lengths[:] = 0
         return obs

@@ -17,10 +17,16 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from sma_gym._validation import require_action, require_choice, require_range
+from sma_gym._validation import require_action, require_choice, require_options, require_range
 from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs import references as refs
-from sma_gym.envs.conditions import CONDITION_INFO, CONDITION_KWARGS, Conditions, condition_info
+from sma_gym.envs.conditions import (
+    CONDITION_INFO,
+    CONDITION_KWARGS,
+    Conditions,
+    condition_info,
+    require_no_silent_override,
+)
 from sma_gym.envs.render import EpisodeRendering
 from sma_gym.envs.task import (
     DEFAULT_CONTROL_PERIOD_S,
@@ -160,6 +166,8 @@ class Settings:
         given = {key: a[key] for key in CONDITION_KWARGS if a.get(key) is not None}
         if not variant.randomised:
             reject_unknown(given, accepted)
+        elif a["model"] is not None:
+            require_no_silent_override(m, load_model(variant.default_model), set(given))
         return cls(
             model=m,
             control_period_s=require_range("control_period_s", a["control_period_s"], 1e-4, 0.1, "s"),
@@ -184,7 +192,7 @@ def reset_actuator(
     gives the same episode in both. Returns the drawn condition (``None`` unless the
     variant randomises conditions); the reference is ``state.references[i]``.
     """
-    options = {} if options is None else options
+    options = require_options(options)
     unknown = set(options) - {"reference"}
     if unknown:
         raise ValueError(f"reset options {sorted(unknown)}: expected only 'reference'")
@@ -275,7 +283,7 @@ class SMAEnv(EpisodeRendering, ImportableSpec, gym.Env):
 
     def reference_description(self) -> dict[str, Any]:
         """The episode's reference: ``kind``, ``name`` and its parameters (keys depend on the kind)."""
-        return self.task.references[0].describe()
+        return self.task.describe_references()[0]
 
     def step(self, action):
         a = float(require_action(action, 1)[0])
@@ -403,12 +411,16 @@ class SMARobustEnv(SMAEnv):
             docs.PWM_MODE,
             """
             - `supply_voltage_v`, `wire_diameter_m`: a number fixes the condition, a
-              `(low, high)` pair draws it uniformly; `convection`: `"natural"`, `"forced"`
-              or `"random"`; `spread` (0 to 3) scales the parameter spread (0: none).
+              `(low, high)` pair draws it uniformly; `convection`: `"natural"` (the
+              model's own), `"forced"` (the model's times 2.5, the report's fan) or
+              `"random"`; `spread` (0 to 3) scales the parameter spread (0: none).
               `None` (the default): the default of :class:`~sma_gym.envs.conditions.Conditions`.
+              With a `model` whose supply, wire diameter or convection differs from the
+              default model's, each of those kwargs must be given (the draws would
+              change the model's own value unasked): `ValueError` otherwise, saying which.
             """,
         ),
-        Version_History=docs.VERSION_0_2,
+        Version_History=docs.ROBUST_MODEL_CHECK + docs.VERSION_0_2,
     )
 
     variant = ROBUST

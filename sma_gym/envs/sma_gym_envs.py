@@ -12,7 +12,15 @@ from __future__ import annotations
 from typing import Any
 
 from sma_gym.envs.multiplexed import SMAMultiplexedEnv, SMAMultiplexedVectorEnv
-from sma_gym.envs.single import ROBUST, SELF_SENSING, TRACKING, SMARobustEnv, SMASelfSensingEnv, SMATrackingEnv
+from sma_gym.envs.single import (
+    ROBUST,
+    SELF_SENSING,
+    TRACKING,
+    SMARobustEnv,
+    SMASelfSensingEnv,
+    SMATrackingEnv,
+    Variant,
+)
 from sma_gym.envs.vector import SMAVectorEnv
 
 __all__ = [
@@ -27,19 +35,28 @@ __all__ = [
 ]
 
 
+def _vector(num_envs: int, variant: Variant, env_id: str, kwargs: dict[str, Any]) -> SMAVectorEnv:
+    if "variant" in kwargs:
+        raise ValueError(
+            f"variant = {kwargs['variant']!r}: fixed by the id ({env_id} is the {variant.name} variant); "
+            "make_vec another id for another variant"
+        )
+    return SMAVectorEnv(num_envs, variant, **kwargs)
+
+
 def tracking_vector(num_envs: int, **kwargs: Any) -> SMAVectorEnv:
     """Vector entry point of ``SMATracking-v0``: :class:`SMAVectorEnv` of that variant (same kwargs)."""
-    return SMAVectorEnv(num_envs, TRACKING, **kwargs)
+    return _vector(num_envs, TRACKING, "SMATracking-v0", kwargs)
 
 
 def self_sensing_vector(num_envs: int, **kwargs: Any) -> SMAVectorEnv:
     """Vector entry point of ``SMASelfSensing-v0``: :class:`SMAVectorEnv` of that variant (same kwargs)."""
-    return SMAVectorEnv(num_envs, SELF_SENSING, **kwargs)
+    return _vector(num_envs, SELF_SENSING, "SMASelfSensing-v0", kwargs)
 
 
 def robust_vector(num_envs: int, **kwargs: Any) -> SMAVectorEnv:
     """Vector entry point of ``SMARobust-v0``: :class:`SMAVectorEnv` of that variant (same kwargs)."""
-    return SMAVectorEnv(num_envs, ROBUST, **kwargs)
+    return _vector(num_envs, ROBUST, "SMARobust-v0", kwargs)
 
 
 def multiplexed_vector(num_envs: int, **kwargs: Any) -> SMAMultiplexedVectorEnv:

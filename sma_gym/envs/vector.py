@@ -13,11 +13,12 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
+from gymnasium.error import ResetNeeded
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from sma_gym._validation import require_actions, require_choice, require_int_range
+from sma_gym._validation import require_actions, require_choice, require_int_range, require_options
 from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs.conditions import CONDITION_INFO, CONDITION_INFO_KEYS, condition_info
 from sma_gym.envs.render import EpisodeHistory, EpisodePlot
@@ -196,6 +197,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         self._steps = np.zeros(n, dtype=np.int64)
         self._duty = np.zeros((1, n))
         self._rngs: list[np.random.Generator | None] = [None] * n
+        self._unstarted = UnstartedEnvs(n)
         self.conditions: list[dict[str, Any] | None] = [None] * n
         """The condition each sub-env drew at its last reset (robustness env), else ``None``."""
         self._condition_info = {
@@ -248,7 +250,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
 
     def reference_description(self) -> list[dict[str, Any]]:
         """Each sub-env's current reference (kind, name, parameters; keys depend on the kind)."""
-        return [ref.describe() for ref in self.task.references]
+        return self.task.describe_references()
 
     def _reset_envs(self, envs: np.ndarray, options: dict | None) -> None:
         """Start a new episode in the sub-envs ``envs``, each drawing from its own generator."""
@@ -264,12 +266,14 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             if self._histories:
                 self._histories[i].clear()
         self._ended[envs] = False
+        self._unstarted.started(envs)
         if envs.size:
             self._evaluate(envs.astype(np.int64))
             self._record(envs)
 
     def step(self, actions):
         a = require_actions(actions, self.num_envs)
+        self._unstarted.require_none()
         restart = self._ended.copy()
         if restart.any() and self.autoreset_mode == AutoresetMode.DISABLED:
             raise ValueError(
@@ -377,13 +381,34 @@ variant that does not randomise is refused by :meth:`Settings.from_arguments`)."
 spell_out_settings(SMAVectorEnv.__init__, VECTOR_SETTINGS)
 
 
+class UnstartedEnvs:
+    """Which sub-envs of a vector env were never reset: stepping one would run an episode
+    without a reference or a noise generator, so the step is refused (as Gymnasium's
+    ``OrderEnforcing`` refuses a single env's). One ``bool`` test per step once all started."""
+
+    def __init__(self, n: int):
+        self._never = np.ones(n, dtype=bool)
+        self._all_started = False
+
+    def started(self, envs: np.ndarray) -> None:
+        if not self._all_started:
+            self._never[envs] = False
+            self._all_started = not self._never.any()
+
+    def require_none(self) -> None:
+        if not self._all_started:
+            never = np.flatnonzero(self._never).tolist()
+            shown = never if len(never) <= 10 else [*never[:10], "..."]
+            raise ResetNeeded(f"sub-envs {shown} were never reset: call reset() before step()")
+
+
 def reset_arguments(
     seed: int | Sequence[int | None] | None, options: dict | None, num_envs: int
 ) -> tuple[np.ndarray | None, list[int | None], dict]:
     """A vector reset's ``(reset_mask or None, one seed per sub-env, the other options)``:
     sub-env i gets ``seed + i`` (as Gymnasium's ``SyncVectorEnv``) or its entry of a list;
     ``ValueError`` naming a bad mask or seed list."""
-    options = dict(options or {})
+    options = require_options(options)
     mask = options.pop("reset_mask", None)
     if mask is not None and not (
         isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == (num_envs,) and mask.any()
