@@ -103,6 +103,29 @@ def _problems(values: Mapping[str, Any]) -> list[tuple[str, str]]:
             f"one of {', '.join(ALLOCATIONS)}",
         ),
         ("name", isinstance(values.get("name", ""), str), "a string"),
+        # The run's record: a wrong type here would be shown in tables as if it were true.
+        ("seed", values.get("seed") is None or _is_int(values.get("seed")), "null or an integer"),
+        (
+            "timesteps",
+            values.get("timesteps") is None or (_is_int(values.get("timesteps")) and values.get("timesteps") >= 0),
+            "null or an integer >= 0",
+        ),
+        (
+            "train_time_s",
+            values.get("train_time_s") is None
+            or (
+                _is_number(values.get("train_time_s"))
+                and math.isfinite(values.get("train_time_s"))
+                and values.get("train_time_s") >= 0
+            ),
+            "null or a time >= 0 s",
+        ),
+        (
+            "validation_return",
+            values.get("validation_return") is None
+            or (_is_number(values.get("validation_return")) and math.isfinite(values.get("validation_return"))),
+            "null or a finite number",
+        ),
         (
             "version",
             _is_int(values.get("version", CARD_VERSION)) and 1 <= values.get("version", CARD_VERSION) <= CARD_VERSION,

@@ -1128,3 +1128,20 @@ def test_a_controller_policy_keeps_state_until_reset_as_its_docstring_says():
     first = episode(reset=True)
     assert episode(reset=False) != pytest.approx(first)  # carried over: why the docs say to reset
     assert episode(reset=True) == pytest.approx(first)
+
+
+def test_a_cards_record_fields_are_checked_like_its_settings():
+    from sma_gym_agents.card import PolicyCard
+
+    good = {"algo": "SAC", "env_id": "SMATracking-v0", "seed": 3, "timesteps": 200000, "validation_return": -20.5}
+    assert PolicyCard.from_dict(good).seed == 3
+    for key, value, expected in (
+        ("seed", "abc", "null or an integer"),
+        ("timesteps", -5, "an integer >= 0"),
+        ("train_time_s", float("nan"), "a time >= 0 s"),
+        ("validation_return", "high", "a finite number"),
+    ):
+        with pytest.raises(
+            ValueError, match=rf"card.json: {key} = .*expected null or.*{re.escape(expected.split('or ')[-1])}"
+        ):
+            PolicyCard.from_dict({**good, key: value}, where="card.json")
