@@ -29,7 +29,7 @@ from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs import references as refs
 from sma_gym.envs.render import EpisodeRendering
 from sma_gym.envs.single import TRACKING, Settings, SMAEnv, keyword_settings, spell_out_settings, with_settings
-from sma_gym.envs.vector import UnstartedEnvs, reset_arguments
+from sma_gym.envs.vector import BUILT_FROM, UnstartedEnvs, reset_arguments
 from sma_gym.simulator import Simulator
 
 DEFAULT_N_ACTUATORS = 4
@@ -298,23 +298,7 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
-    FIXED_AT_MAKE = (
-        "control_period_s",
-        "settings",
-        "sim",
-        "task",
-        "num_envs",
-        "n",
-        "scheme",
-        "multiplexer",
-        "feature_names",
-        "duty_range",
-        "observation_space",
-        "action_space",
-        "single_observation_space",
-        "single_action_space",
-        "autoreset_mode",
-    )
+    FIXED_AT_MAKE = (*BUILT_FROM, "n", "scheme", "multiplexer")
     """Attributes the simulator, the driver or the spaces were built from: adapters refuse
     to set them (the simulator would go on stepping with the old value)."""
 

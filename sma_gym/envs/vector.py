@@ -37,6 +37,24 @@ from sma_gym.simulator import Simulator
 _MODES = {mode.value: mode for mode in AutoresetMode}
 
 
+BUILT_FROM = (
+    "control_period_s",
+    "settings",
+    "sim",
+    "task",
+    "num_envs",
+    "feature_names",
+    "duty_range",
+    "observation_space",
+    "action_space",
+    "single_observation_space",
+    "single_action_space",
+    "autoreset_mode",
+)
+"""What every native vector env builds its simulator and spaces from (its ``FIXED_AT_MAKE``
+adds its own)."""
+
+
 class SMAVectorEnv(ImportableSpec, VectorEnv):
     __doc__ = docs.env_doc(
         "``num_envs`` single-actuator envs of one variant, simulated as one batch.",
@@ -125,21 +143,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 100, "autoreset_mode": AutoresetMode.NEXT_STEP}
 
-    FIXED_AT_MAKE = (
-        "control_period_s",
-        "settings",
-        "sim",
-        "task",
-        "variant",
-        "num_envs",
-        "feature_names",
-        "duty_range",
-        "observation_space",
-        "action_space",
-        "single_observation_space",
-        "single_action_space",
-        "autoreset_mode",
-    )
+    FIXED_AT_MAKE = (*BUILT_FROM, "variant")
     """Attributes the simulator or the spaces were built from: changing one afterwards would
     leave the simulator stepping with the old value, so adapters refuse to set them."""
 
