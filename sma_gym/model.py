@@ -34,6 +34,8 @@ from sma_gym.params import ActuatorParams, preset, preset_names
 
 FORMAT_NAME = "sma-gym-model"
 FORMAT_VERSION = 1
+FILE_KEYS = ("format", "version", "actuator", "effects", "notes")
+"""The top-level keys of a model file (:meth:`ModelConfig.to_dict`); any other is refused."""
 
 
 @dataclass(frozen=True)
@@ -81,6 +83,13 @@ class ModelConfig:
             raise ValueError(f"{source}: 'format' = {data.get('format')!r}: expected {FORMAT_NAME!r}")
         if data.get("version") != FORMAT_VERSION:
             raise ValueError(f"{source}: 'version' = {data.get('version')!r}: expected {FORMAT_VERSION}")
+        unknown = sorted(set(data) - set(FILE_KEYS))
+        if unknown:
+            # A misspelt "effects" would otherwise load the model without its effects.
+            raise ValueError(f"{source}: unknown key(s) {unknown}: expected only {list(FILE_KEYS)}")
+        notes = data.get("notes", "")
+        if not isinstance(notes, str):
+            raise ValueError(f"{source}: 'notes' = {notes!r}: expected a string")
         for key in ("actuator", "effects"):
             if not isinstance(data.get(key, {}), Mapping):
                 kind = type(data[key]).__name__
@@ -90,7 +99,7 @@ class ModelConfig:
             effects = EffectSet.of(data.get("effects", {}))
         except (TypeError, ValueError) as err:
             raise ValueError(f"{source}: {err}") from None
-        return cls(actuator=actuator, effects=effects, notes=str(data.get("notes", "")))
+        return cls(actuator=actuator, effects=effects, notes=notes)
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write the configuration as JSON (see the module docstring)."""

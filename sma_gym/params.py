@@ -708,7 +708,9 @@ class ActuatorParams:
                     **{k: _json_typed(f"{key}.{k}", _json_float(v), defaults[k]) for k, v in value.items()}
                 )
             elif key in ("name", "description"):
-                kwargs[key] = str(value)
+                if not isinstance(value, str):
+                    raise ValueError(f"actuator parameters.{key} = {value!r}: expected a string")
+                kwargs[key] = value
             else:
                 raise ValueError(f"unknown key {key!r} in actuator parameters")
         return cls(**kwargs)

@@ -1145,3 +1145,26 @@ def test_a_cards_record_fields_are_checked_like_its_settings():
             ValueError, match=rf"card.json: {key} = .*expected null or.*{re.escape(expected.split('or ')[-1])}"
         ):
             PolicyCard.from_dict({**good, key: value}, where="card.json")
+
+
+def test_a_model_file_with_an_unknown_key_or_a_non_string_name_is_refused(tmp_path):
+    """A misspelt "effects" loaded the model without its effects; a number as the name was
+    turned into a string."""
+    import json
+
+    from sma_gym.model import ModelConfig
+    from sma_gym.models import twin_path
+
+    twin = ModelConfig.load(twin_path("bench-0.5mm-ht")).to_dict()
+    assert ModelConfig.from_dict(twin).effects  # the shipped twin carries effects
+    misspelt = {k: v for k, v in twin.items() if k != "effects"} | {"effect": twin["effects"]}
+    path = tmp_path / "twin.json"
+    path.write_text(json.dumps(misspelt))
+    before = path.read_bytes()
+    with pytest.raises(ValueError, match=r"twin.json.*unknown key\(s\) \['effect'\]: expected only"):
+        ModelConfig.load(path)
+    assert path.read_bytes() == before
+    with pytest.raises(ValueError, match=r"actuator parameters.name = 5: expected a string"):
+        ModelConfig.from_dict({**twin, "actuator": {**twin["actuator"], "name": 5}})
+    with pytest.raises(ValueError, match=r"'notes' = \['a'\]: expected a string"):
+        ModelConfig.from_dict({**twin, "notes": ["a"]})

@@ -23,7 +23,9 @@
      (a "correction" that makes held-out data worse than no correction is never a finding);
    * from the second round on, the reference is also every effect found so far in each of
      its other forms (an effect's form is as uncertain as its size: a later candidate
-     must explain more than an earlier effect's other form does).
+     must explain more than an earlier effect's other form does). An effect moves to
+     another form, and the round's candidates are fitted on top of it, when that form
+     fits better by the BIC bar and predicts the held-out data better (``_better_form``).
 
    Verdicts: ``none`` whenever the reference's held-out residual is within ``NOISE_STOP``
    (2) times the noise (nothing is left to explain: the same rule ends the rounds);
@@ -489,7 +491,7 @@ def _round(
     # effect must explain more than the form of an earlier one).
     first_ref = _candidate(refit, held_problem, n_eff)
     form_refs = _form_references(found, forms, problem, held_problem, base_params, first_ref, n_eff, say)
-    form_change = _better_form(first_ref, form_refs, as_given, heldout_gain, held_problem)
+    form_change = _better_form(first_ref, form_refs, as_given)
     form_bars = [c for _, _, c in form_refs]
     reference = first_ref
     if form_change is not None:
@@ -535,22 +537,29 @@ def _better_form(
     ref: Candidate,
     form_refs: Sequence[tuple[str, str, Candidate]],
     as_given: float | None,
-    heldout_gain: float,
-    held: fitting.Problem,
 ) -> tuple[str, str, Candidate] | None:
-    """The best other form of an effect found, if it beats the refit (the effect in its
-    current form) as a candidate must: by the BIC bar, the gain bar held out, consistently
-    over the held-out blocks and better than the model as given. An effect's form is as
+    """The best other form of an effect found, if the data prefer it to the effect's
+    current form (the refit): by the BIC bar on the fitted data, and better on the held-out
+    data than both the current form and the model as given. An effect's form is as
     uncertain as its size (measured: a delayed pulse settling found in its default form
-    left 5.0x the noise held out, in its delayed form 1.7x)."""
+    left 5.0x the noise held out, in its delayed form 1.7x).
+
+    Choosing a form is choosing a parameter of an effect already found, not naming a new
+    one, so it needs no gain bar and no block test: the candidates of the round are
+    fitted on top of the form chosen, and a form kept that both fits and predicts worse
+    makes every candidate of the round carry the difference. Measured (two effects hidden,
+    a latent heat in its asymmetric form found in its default form in round 1): the
+    asymmetric form fitted better by ΔBIC -165 and -114 and predicted 10 % and 40 % better,
+    short of the later rounds' 25 % bar or the block test (t = 1.1), so it stayed a bar;
+    the second hidden effect, fitted on top of the worse form, gained 31 % held out on the
+    position but lost on the resistance, where the forms differ, and was not named."""
     if not form_refs:
         return None
     name, form, best = min(form_refs, key=lambda f: f[2].heldout_score)
     supported = (
         best.bic < ref.bic - BIC_THRESHOLD
-        and best.heldout_score <= (1.0 - heldout_gain) * ref.heldout_score
+        and best.heldout_score < ref.heldout_score
         and (as_given is None or best.heldout_score < as_given)
-        and not _indistinguishable(best, ref, held, margin=0.0)
     )
     return (name, form, best) if supported else None
 
