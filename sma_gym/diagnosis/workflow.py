@@ -597,29 +597,26 @@ def _pairs_to_try(r: _Round, heldout_gain: float, electrical: bool) -> list[tupl
     ]
     if r.verdict == "ambiguous":
         names = [n for n in r.effect if usable(n)][:JOINT_RIVALS]
-        pairs = list(itertools.combinations(names, 2))
         best = r.effect[0]
-        if usable(best):
-            # The best with every other candidate that has evidence of either kind: the
-            # second effect need not be a rival of the first.
-            for c in evidence:
-                pair = (best, c.name)
-                if c.name != best and pair not in pairs and pair[::-1] not in pairs:
-                    pairs.append(pair)
-        return pairs[:MAX_JOINT_PAIRS]
-    if r.verdict != "unexplained":
+        # Then the best with every other candidate that has evidence of either kind: the
+        # second effect need not be a rival of the first.
+        partners = [c.name for c in evidence if c.name != best] if usable(best) else []
+        ordered = [*itertools.combinations(names, 2), *((best, n) for n in partners)]
+    elif r.verdict == "unexplained" and len(evidence) >= 2:
+        by_bic = sorted(evidence, key=lambda c: c.bic)
+        best_held = min(evidence, key=lambda c: c.heldout_score)
+        ordered = [
+            (a.name, b.name)
+            for a, b in [
+                *itertools.combinations(by_bic[:JOINT_RIVALS], 2),
+                *((by_bic[0], c) for c in by_bic[1:]),
+                *((best_held, c) for c in by_bic if c is not best_held),
+            ]
+        ]
+    else:
         return []
-    if len(evidence) < 2:
-        return []
-    by_bic = sorted(evidence, key=lambda c: c.bic)
-    best_held = min(evidence, key=lambda c: c.heldout_score)
     pairs: list[tuple[str, str]] = []
-    for a, b in [
-        *itertools.combinations(by_bic[:JOINT_RIVALS], 2),
-        *((by_bic[0], c) for c in by_bic[1:]),
-        *((best_held, c) for c in by_bic if c is not best_held),
-    ]:
-        pair = (a.name, b.name)
+    for pair in ordered:
         if pair not in pairs and pair[::-1] not in pairs:
             pairs.append(pair)
     return pairs[:MAX_JOINT_PAIRS]
