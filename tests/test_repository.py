@@ -28,6 +28,17 @@ def test_ci_runs_the_readme_test_command_verbatim():
     assert tests in ci
 
 
+def test_the_test_commands_plugins_come_with_the_test_extra():
+    """The README's test command runs pytest-xdist workers (``-n``): on a fresh machine the
+    ``[test]`` extra it installs must bring the plugin, else pytest stops at the option."""
+    tomllib = pytest.importorskip("tomllib", reason="tomllib is in the standard library from Python 3.11")
+
+    _, tests = readme_commands()
+    extra = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]["test"]
+    if re.search(r"pytest\b.*\s-n\s", tests):
+        assert any(re.match(r"pytest-xdist\b", requirement) for requirement in extra), extra
+
+
 def test_package_metadata_uses_an_spdx_licence_and_ships_its_type_marker():
     """setuptools stops accepting ``license = {text = ...}`` tables in 2027 (PEP 639);
     ``py.typed`` tells type checkers the package's hints are meant for them."""
