@@ -397,18 +397,11 @@ def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str,
 
 def final_heldout(result: Diagnosis) -> float | None:
     """Held-out normalised RMS of the corrected model the diagnosis returns: the last
-    round's choice when it named one, else the previous round's, else (nothing found) the
-    nominal refit. A round that names nothing reports the model it started from, unrefitted,
-    as its own score, which is not what the user gets."""
+    round's (each round records the model it leaves: its choice when it named one or was
+    ambiguous, else the previous round's, else, nothing found, the nominal refit)."""
     if not result.rounds:
         return None
-    last = result.rounds[-1]
-    if last["verdict"] in ("effect", "effects", "ambiguous") or last.get("form_changed"):
-        # "effects": a pair named in one round; a form change: the round's model carries it.
-        return last["heldout_normalised_rms"]
-    if result.effects_found:
-        return last["as_given_heldout_normalised_rms"]
-    return result.rounds[0]["nominal_refit_heldout_normalised_rms"]
+    return result.rounds[-1]["heldout_normalised_rms"]
 
 
 def _fraction(k: int, n: int) -> float | None:

@@ -300,7 +300,19 @@ def _synth_arguments(p: argparse.ArgumentParser) -> None:
         help="s between rows, and between the recording controller's commands (default 1e-3: 1 kHz)",
     )
     p.add_argument("--no-electrical", action="store_true", help="record position only (no R, I, V)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="seed of the run: excitation, noise and, unless --actuator-seed, the perturbation (default 0)",
+    )
+    p.add_argument(
+        "--actuator-seed",
+        type=int,
+        default=None,
+        help="seed of the nominal perturbation alone: the same value gives the same actuator under any --seed "
+        "(default: drawn from --seed; --actuator-seed K is the actuator of --seed K)",
+    )
     p.add_argument("--overwrite", action="store_true", help="replace an existing file")
 
 
@@ -417,6 +429,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as err:
         print(f"sma-gym {args.command}: error: {err}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        # Ctrl-C is the user's choice, not a bug: no traceback; the shell's code for SIGINT.
+        print(f"sma-gym {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -122,6 +122,12 @@ def test_no_candidates_is_the_nominal_refit_alone():
     result = diagnose([fit], [], ModelConfig(), effects=[])
     assert result.verdict == "none" and [r["round"] for r in result.rounds] == [1]
     assert result.rounds[0]["candidates"][0]["name"] == "nominal refit" and len(result.rounds[0]["candidates"]) == 1
+    # The round reports the model it leaves, which the workflow returns (the refit), not the
+    # model as given it started from (until 2026-11-27 a round that named nothing did).
+    first = result.rounds[0]
+    assert first["heldout_normalised_rms"] == first["nominal_refit_heldout_normalised_rms"]
+    assert first["heldout_normalised_rms"] != first["as_given_heldout_normalised_rms"]
+    assert first["gap"] == result.gap_after
 
 
 def test_without_heldout_files_the_end_of_each_file_is_held_out():

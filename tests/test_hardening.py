@@ -425,6 +425,8 @@ def test_sb3_vec_env_honours_indices_and_refuses_fixed_attributes():
         (["--duration", "inf"], "--duration"),
         (["--duration", "1e6"], "--duration"),
         (["--seed", "-1"], "--seed"),
+        (["--actuator-seed", "-1"], "--actuator-seed"),
+        (["--form", "uniform"], "--form"),  # a form without an effect was silently ignored
     ],
 )
 def test_synth_rejects_out_of_range_options_and_writes_nothing(tmp_path, capsys, args, needle):
@@ -433,6 +435,41 @@ def test_synth_rejects_out_of_range_options_and_writes_nothing(tmp_path, capsys,
     assert main(["synth", "--out", str(tmp_path / "s.csv"), *args]) == 2
     assert needle in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_ctrl_c_ends_a_command_with_a_line_not_a_traceback(tmp_path, capsys, monkeypatch):
+    import sma_gym.diagnosis.synth
+    from sma_gym.cli import main
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sma_gym.diagnosis.synth, "write", interrupted)
+    assert main(["synth", "--out", str(tmp_path / "s.csv"), "--duration", "5"]) == 130
+    assert capsys.readouterr().err == "sma-gym synth: interrupted\n"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_synth_actuator_seed_gives_another_run_of_the_same_actuator(tmp_path):
+    """``--seed`` alone draws another actuator (the README's held-out file of the same wire was
+    then another wire: its diagnosis came back "unexplained"); ``--actuator-seed K`` keeps the
+    actuator of ``--seed K`` and changes only the run."""
+    import json
+
+    def labels(name: str) -> dict:
+        return json.loads((tmp_path / f"{name}.labels.json").read_text())
+
+    _synth(tmp_path, "fit.csv")
+    _synth(tmp_path, "other.csv", "--seed", "1")
+    _synth(tmp_path, "held.csv", "--seed", "1", "--actuator-seed", "0")
+    fit, other, held = labels("fit"), labels("other"), labels("held")
+    assert held["perturbation"] == fit["perturbation"] != other["perturbation"]
+    assert (fit["actuator_seed"], other["actuator_seed"], held["actuator_seed"]) == (0, 1, 0)
+    assert (
+        (tmp_path / "held.csv").read_text()
+        != (tmp_path / "other.csv").read_text()
+        != (tmp_path / "fit.csv").read_text()
+    )
 
 
 @pytest.mark.parametrize("name", ["labels.json", "trace.txt", "trace"])
@@ -811,6 +848,9 @@ def test_locked_folder_removes_only_the_empty_folders_it_created_on_failure(tmp_
         (["--hyperparams", "learning_rate:-1"], "learning_rate = -1"),
         (["--timesteps", "-5"], "--quick with --timesteps -5"),
         (["--hyperparams", "ent_coef:bad"], "'bad'"),  # refused by stable-baselines3 itself, after run.json
+        (["--hyperparams", "learning_rate:abc"], "learning_rate = 'abc': expected a number > 0"),
+        (["--hyperparams", "batch_size:abc"], "batch_size = 'abc': expected an integer > 0"),  # crashed mid-training
+        (["--hyperparams", "buffer_size:5000"], "--quick with --hyperparams buffer_size"),  # was silently replaced
     ],
 )
 def test_train_refuses_bad_options_and_leaves_no_run_folder(tmp_path, args, needle):
@@ -921,6 +961,33 @@ def test_algorithm_fractions_have_their_own_lower_ends():
     check_model_kwargs({"gamma": 0.99, "tau": 0.02, "gae_lambda": 0.0}, "here")  # lambda 0: one-step TD
     for key, value in (("gamma", 0.0), ("tau", 0.0), ("gae_lambda", 1.5), ("gamma", float("nan")), ("tau", True)):
         with pytest.raises(ValueError, match=rf"here: {key} = "):
+            check_model_kwargs({key: value}, "here")
+
+
+def test_algorithm_counts_and_rates_are_checked_whatever_their_type():
+    """Strings and fractional counts passed the range checks (only numbers were compared) and
+    failed deep in training, with a traceback and a half-written run folder."""
+    from sma_gym_agents.training.config import check_model_kwargs
+
+    good = {"learning_rate": 3e-4, "batch_size": 256, "buffer_size": 1e6, "n_steps": 64, "learning_starts": 0}
+    check_model_kwargs(good, "here")
+    check_model_kwargs({"learning_rate": lambda progress: 1e-3 * progress, "train_freq": [1, "episode"]}, "here")
+    check_model_kwargs({"train_freq": (4, "step")}, "here")
+    bad = [
+        ("learning_rate", "abc"),
+        ("learning_rate", float("inf")),
+        ("batch_size", "abc"),
+        ("batch_size", 1.5),
+        ("n_epochs", True),
+        ("buffer_size", float("nan")),
+        ("train_freq", [0, "step"]),
+        ("train_freq", [1, "episodes"]),
+        ("train_freq", "4"),
+        ("learning_starts", -1),
+        ("learning_starts", "abc"),
+    ]
+    for key, value in bad:
+        with pytest.raises(ValueError, match=rf"here: {key} = .*expected"):
             check_model_kwargs({key: value}, "here")
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import math
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -333,7 +334,8 @@ class RunConfig:
         if args.env in NOT_FOR_TRAIN_PY:
             raise ValueError(f"--env {args.env}: {NOT_FOR_TRAIN_PY[args.env]}")
         algo = args.algo or DEFAULT_ALGO
-        table = {**load_hyperparams(args.env, algo), **hyperparams_option(args.hyperparams, algo)}
+        overrides = hyperparams_option(args.hyperparams, algo)
+        table = {**load_hyperparams(args.env, algo), **overrides}
         refused = sorted(set(table) & set(_ZOO_ONLY_KEYS))
         if refused:
             raise ValueError(
@@ -352,20 +354,21 @@ class RunConfig:
         timesteps = int(table["n_timesteps"] if args.timesteps is None else args.timesteps)
         eval_freq = EVAL_FREQ[algo] if args.eval_freq is None else args.eval_freq
         if args.quick:
+            quick_kwargs = (
+                {"learning_starts": 200, "buffer_size": 10_000} if algo == "sac" else {"n_steps": 64, "batch_size": 64}
+            )
             given = [
                 f"{o} {v}"
                 for o, v in (("--timesteps", args.timesteps), ("--eval-freq", args.eval_freq))
                 if v is not None
-            ]
+            ] + [f"--hyperparams {k}" for k in overrides if k in quick_kwargs]
             if given:
                 raise ValueError(
-                    f"--quick with {' and '.join(given)}: --quick sets {QUICK_TIMESTEPS} steps and an evaluation every "
-                    "500; give either --quick or the budget"
+                    f"--quick with {' and '.join(given)}: --quick sets {QUICK_TIMESTEPS} steps, an evaluation every "
+                    f"500 and {', '.join(f'{k} {v}' for k, v in quick_kwargs.items())}; give either --quick or those"
                 )
             timesteps, eval_freq = QUICK_TIMESTEPS, 500
-            model_kwargs.update(
-                {"learning_starts": 200, "buffer_size": 10_000} if algo == "sac" else {"n_steps": 64, "batch_size": 64}
-            )
+            model_kwargs.update(quick_kwargs)
         residual = (None if args.residual == "none" else args.residual) if args.residual else features.residual
         run = cls(
             env_id=args.env,
@@ -465,26 +468,49 @@ _UNIT_INTERVAL_KEYS = {"gamma": False, "tau": False, "gae_lambda": True}
 """Algorithm keywords that are fractions up to 1 (a discount above 1 makes returns diverge),
 each with whether 0 is allowed (GAE's lambda = 0 is one-step TD; tau = 0 never updates)."""
 _POSITIVE_KEYS = ("learning_rate", "batch_size", "buffer_size", "n_steps", "n_epochs", "train_freq")
+_NON_INTEGER_KEYS = ("learning_rate",)
+"""Of the keys above, those that are not counts (the rest must be whole numbers)."""
+
+
+def _real(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def check_model_kwargs(model_kwargs: dict[str, Any], where: str) -> None:
     """Refuse values of the algorithm's common keywords that stable-baselines3 accepts but
-    cannot learn with (``gamma`` 2), or refuses only once the run folder exists; a
-    ``ValueError`` naming the key, its value and the range."""
+    cannot learn with (``gamma`` 2), or refuses only once the run folder exists or deep in
+    training (``batch_size`` "abc"); a ``ValueError`` naming the key, its value and what
+    was expected."""
     for key, zero_allowed in _UNIT_INTERVAL_KEYS.items():
         value = model_kwargs.get(key)
         if value is None:
             continue
-        number = isinstance(value, (int, float)) and not isinstance(value, bool)
-        if not (number and (0 <= value if zero_allowed else 0 < value) and value <= 1):
+        if not (_real(value) and (0 <= value if zero_allowed else 0 < value) and value <= 1):
             raise ValueError(f"{where}: {key} = {value!r}: expected a number in {'[0' if zero_allowed else '(0'}, 1]")
     for key in _POSITIVE_KEYS:
-        value = model_kwargs.get(key)
-        if isinstance(value, (int, float)) and not isinstance(value, bool) and not value > 0:
-            raise ValueError(f"{where}: {key} = {value!r}: expected a number > 0")
-    starts = model_kwargs.get("learning_starts")
-    if isinstance(starts, (int, float)) and not isinstance(starts, bool) and not starts >= 0:
-        raise ValueError(f"{where}: learning_starts = {starts!r}: expected an integer >= 0")
+        if key not in model_kwargs:
+            continue
+        value = model_kwargs[key]
+        if key == "learning_rate" and callable(value):
+            continue  # a schedule (Python API)
+        if key == "train_freq" and isinstance(value, (tuple, list)):
+            # stable-baselines3's (frequency, unit) form
+            if not (
+                len(value) == 2
+                and _real(value[0])
+                and float(value[0]).is_integer()
+                and value[0] > 0
+                and value[1] in ("step", "episode")
+            ):
+                raise ValueError(f"{where}: train_freq = {value!r}: expected an integer > 0 or [n, 'step' | 'episode']")
+            continue
+        whole = key not in _NON_INTEGER_KEYS
+        if not (_real(value) and value > 0 and (not whole or float(value).is_integer())):
+            raise ValueError(f"{where}: {key} = {value!r}: expected {'an integer' if whole else 'a number'} > 0")
+    if "learning_starts" in model_kwargs:
+        starts = model_kwargs["learning_starts"]
+        if not (_real(starts) and float(starts).is_integer() and starts >= 0):
+            raise ValueError(f"{where}: learning_starts = {starts!r}: expected an integer >= 0")
 
 
 def check_env_kwargs(env_id: str, env_kwargs: dict[str, Any]) -> None:

@@ -150,7 +150,7 @@ def _round_lines(result: Diagnosis) -> list[str]:
         "as a new effect must); it stops when nothing is supported, the verdict is ambiguous, or the held-out "
         "residual is within 2x the noise (normalised RMS 1 = noise).",
         "",
-        "| round | verdict | effect | held-out normalised RMS (refit only -> with effect) | held-out position RMS | parameters at a bound |",
+        "| round | verdict | effect | held-out normalised RMS (refit only -> the round's model) | held-out position RMS | parameters at a bound |",
         "|---|---|---|---|---|---|",
     ]
     for r in result.rounds:

@@ -152,6 +152,11 @@ class SynthSpec:
     perturb: float = 0.0
     sample_period_s: float = 1e-3
     seed: int = 0
+    actuator_seed: int | None = None
+    """Seed of the nominal perturbation alone (which actuator), so that runs of one actuator
+    can differ in ``seed`` (excitation and noise); ``None``: drawn from ``seed`` with the
+    rest, so every seed is another actuator. The perturbation is the first draw of either
+    stream, so ``actuator_seed=k`` is the actuator of ``seed=k``."""
 
     def truth(self) -> ModelConfig:
         """The model that generates the data (before the nominal perturbation)."""
@@ -174,7 +179,8 @@ class SynthSpec:
 def generate(spec: SynthSpec) -> tuple[MeasuredTrace, dict[str, Any]]:
     """A measured trace and its labels."""
     rng = np.random.default_rng(spec.seed)
-    truth, perturbation = perturb(spec.truth(), spec.perturb, rng)
+    actuator_rng = rng if spec.actuator_seed is None else np.random.default_rng(spec.actuator_seed)
+    truth, perturbation = perturb(spec.truth(), spec.perturb, actuator_rng)
     stroke = truth.actuator.usable_stroke_m
     ref = excitation(spec.excitation, spec.duration_s, stroke, rng)
     sim = Simulator(truth, control_period_s=CONTROL_PERIOD_S, rng=rng)
@@ -231,6 +237,7 @@ def generate(spec: SynthSpec) -> tuple[MeasuredTrace, dict[str, Any]]:
         "position_noise_m": spec.position_noise_m,
         "resistance_noise_ohm": spec.resistance_noise_ohm,
         "seed": spec.seed,
+        "actuator_seed": spec.seed if spec.actuator_seed is None else spec.actuator_seed,
         "model": spec.model.actuator.name,
     }
     return trace, labels
@@ -318,12 +325,16 @@ def check_spec(spec: SynthSpec) -> None:
     )
     require_range("--perturb", spec.perturb, 0.0, 0.5, "relative; beyond 50 % the nominal model means nothing")
     require_int_range("--seed", spec.seed, 0, 2**63 - 1)
+    if spec.actuator_seed is not None:
+        require_int_range("--actuator-seed", spec.actuator_seed, 0, 2**63 - 1)
 
 
 def main(args) -> int:
     name, values = parse_effect(args.effect)
     if name is not None and args.form not in EFFECTS[name].forms:
         raise ValueError(f"--form {args.form!r}: effect {name!r} has forms {EFFECTS[name].forms}")
+    if name is None and args.form != "default":
+        raise ValueError(f"--form {args.form!r}: a form belongs to an effect; expected --effect NAME with it")
     model = load_model(args.model)
     spec = SynthSpec(
         model=model,
@@ -339,6 +350,7 @@ def main(args) -> int:
         perturb=args.perturb,
         sample_period_s=args.sample_period,
         seed=args.seed,
+        actuator_seed=args.actuator_seed,
     )
     check_spec(spec)
     csv_path, labels_path = write(spec, Path(args.out), overwrite=args.overwrite)

@@ -344,16 +344,22 @@ def diagnose(
             forms[r.form_change[0]] = r.form_change[1]
             current, offset, chosen_fit = r.ref.fit.model, r.ref.fit.offset, r.ref.fit
             as_given = r.ref.heldout_score
-        model_r, offset_r = (
-            (r.chosen.fit.model, r.chosen.fit.offset) if named or r.verdict == "ambiguous" else (current, offset)
-        )
+        # The model this round leaves, and its held-out score: what the user gets if the
+        # rounds end here (the round's table and staircase show it, not the model it started from).
+        if named or r.verdict == "ambiguous":
+            model_r, offset_r, score_r = r.chosen.fit.model, r.chosen.fit.offset, r.chosen.heldout_score
+        elif chosen_fit is None:
+            # Nothing found yet: the workflow returns the nominal refit (below).
+            model_r, offset_r, score_r = r.ref.fit.model, r.ref.fit.offset, r.ref.heldout_score
+        else:
+            model_r, offset_r, score_r = current, offset, as_given
         rounds.append(
             {
                 "round": number,
                 "verdict": r.verdict,
                 "effect": r.effect,
                 "form_changed": None if r.form_change is None else {r.form_change[0]: r.form_change[1]},
-                "heldout_normalised_rms": r.chosen.heldout_score if named or r.verdict == "ambiguous" else as_given,
+                "heldout_normalised_rms": score_r,
                 "nominal_refit_heldout_normalised_rms": r.ref.heldout_score,
                 "as_given_heldout_normalised_rms": round_as_given,
                 "parameters_at_bounds": _at_bounds(r.chosen.fit),
