@@ -323,6 +323,7 @@ class Simulator:
         self.state = np.zeros((self.n, L.N_STATE))
         self._has_noise = bool(np.any(self.params[:, [L.P_POS_NOISE, L.P_R_NOISE, L.P_I_NOISE, L.P_V_NOISE]] > 0.0))
         self._duty_buffer = np.zeros((1, self.n))
+        self._noise_buffer = np.empty((1, 4, self.n))  # one step's draw, refilled in place
         self.reset()
 
     # ------------------------------------------------------------------------------------
@@ -450,7 +451,9 @@ class Simulator:
         each sub-env's noise from that sub-env's own generator.
         """
         if noise is None:
-            noise = self.rng.standard_normal((1, 4, self.n)) if self._has_noise else _NO_NOISE
+            # Drawn into a reused buffer: the same numbers as a fresh array, without the
+            # allocation (this runs on every env step).
+            noise = self.rng.standard_normal(out=self._noise_buffer) if self._has_noise else _NO_NOISE
         advance(self.state, self.params, duty_2d, self.control_period_s, noise, _NO_RECORD, _NO_FIELDS)
 
     def set_pulse_start(self, fraction: np.ndarray) -> None:
@@ -588,12 +591,16 @@ class Simulator:
         One conversion of the actuator's state row and a getter cached per ``names``: cheap
         enough for every env step.
         """
+        return dict(zip(names, self.read_actuator_values(index, names)))
+
+    def read_actuator_values(self, index: int, names: tuple[str, ...]) -> tuple[float, ...]:
+        """:meth:`read_actuator`'s values alone, in the order of ``names`` (a tuple)."""
         getter = _GETTERS.get(names)
         if getter is None:
             fields = _fields_of(names, "names")
             # itemgetter of one field returns the value, not a 1-tuple
             getter = _GETTERS[names] = (lambda row, f=fields[0]: (row[f],)) if len(fields) == 1 else itemgetter(*fields)
-        return dict(zip(names, getter(self.state[index].tolist())))
+        return getter(self.state[index].tolist())
 
     # ------------------------------------------------------------------------------------
     # Views of the parameters (shape (n,))

@@ -17,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from sma_gym._validation import require_action, require_choice, require_options, require_range
+from sma_gym._validation import require_choice, require_options, require_range, require_scalar_action
 from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs import references as refs
 from sma_gym.envs.conditions import (
@@ -286,7 +286,7 @@ class SMAEnv(EpisodeRendering, ImportableSpec, gym.Env):
         return self.task.describe_references()[0]
 
     def step(self, action):
-        a = float(require_action(action, 1)[0])
+        a = require_scalar_action(action)
         duty = self.duty_range.duty_for(a)
         self._duty[0, 0] = duty
         self.sim.step_unchecked(self._duty)

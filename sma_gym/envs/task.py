@@ -278,11 +278,11 @@ class TaskState:
     def info_of(self, sim: Simulator, i: int, reference_m: float) -> dict[str, Any]:
         """The :data:`INFO` entries of actuator i as Python scalars (json.dumps and loggers
         refuse numpy scalars such as ``np.bool_``)."""
-        info: dict[str, Any] = sim.read_actuator(i, _READ_KEYS)
-        r = info.pop("resistance_measured_ohm")
+        values = sim.read_actuator_values(i, _READ_KEYS)
+        info: dict[str, Any] = dict(zip(_STATE_INFO_KEYS, values))  # all but the last, the reading
         info["reference_m"] = float(reference_m)
         info["reference_kind"] = int(self.kind[i])
-        info["resistance_valid"] = not math.isnan(r)  # a reading was taken
+        info["resistance_valid"] = not math.isnan(values[-1])  # a reading was taken
         return info
 
 
