@@ -655,6 +655,9 @@ class _StepWorker:
     def close(self) -> None:
         self.proc.stdin.close()
         self.proc.wait(timeout=30)
+        # Left open, its pipe is closed by the garbage collector, whose ResourceWarning then
+        # lands in whichever test runs at that moment (the env checkers' "no warnings" test).
+        self.proc.stdout.close()
 
 
 @pytest.fixture(scope="module")
