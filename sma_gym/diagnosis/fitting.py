@@ -21,6 +21,7 @@ so the result is the same bit for bit with any thread count.
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 from collections.abc import Sequence
@@ -64,6 +65,22 @@ def require_threads(name: str, value: object) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_THREADS:
         raise ValueError(f"{name} = {value!r}: expected an integer from 1 to {MAX_THREADS}")
     return int(value)
+
+
+SWEEP_SIZE_EXTRA = 7
+"""Grid values of each swept parameter after the first (``Problem._grid_start``)."""
+
+
+def _grid_values(p: FitParameter, size: int, scale: bool = False) -> np.ndarray:
+    """``size`` + 1 values spanning a parameter's range: evenly when it spans zero; for a
+    ``scale`` (a positive factor about 1) geometrically from bound to bound; else
+    geometrically in the distance from its lower bound (an effect's size or time constant,
+    whose small values matter most)."""
+    if p.lower < 0.0 < p.upper:
+        return np.linspace(p.lower, p.upper, size + 1)
+    if scale and p.lower > 0.0:
+        return np.geomspace(p.lower, p.upper, size + 1)
+    return np.r_[p.lower, p.lower + (p.upper - p.lower) * np.geomspace(1.0 / 256.0, 1.0, size)]
 
 
 # Effect parameters that would duplicate a fitted nominal parameter are held at off.
@@ -382,17 +399,21 @@ class Problem:
         # named on clean data for a 2 % resistivity error the refit could not absorb.
         return params + (RESISTIVITY,)
 
-    def _grid_start(self, params: Sequence[FitParameter], base: np.ndarray, k: int, size: int = 12) -> np.ndarray:
-        """The best of a grid over parameter k's range (others at ``base``)."""
-        p = params[k]
-        if p.lower < 0.0 < p.upper:
-            grid = np.linspace(p.lower, p.upper, size + 1)
-        else:
-            grid = np.r_[p.lower, p.lower + (p.upper - p.lower) * np.geomspace(1.0 / 256.0, 1.0, size)]
+    def _grid_start(
+        self, params: Sequence[FitParameter], base: np.ndarray, ks: Sequence[int], size: int = 12
+    ) -> np.ndarray:
+        """The best point of a grid over the ranges of parameters ``ks`` (their product; the
+        others at ``base``), in one batched simulation. The first gets ``size`` + 1 values,
+        each further one ``SWEEP_SIZE_EXTRA`` values spaced as a scale (each axis
+        multiplies the cost)."""
+        axes = [
+            _grid_values(params[k], size) if n == 0 else _grid_values(params[k], SWEEP_SIZE_EXTRA - 1, True)
+            for n, k in enumerate(ks)
+        ]
         points = []
-        for value in grid:
+        for values in itertools.product(*axes):
             point = base.copy()
-            point[k] = value
+            point[list(ks)] = values
             points.append(point)
         costs = np.sum(self.residual_matrix(params, points) ** 2, axis=0)
         return points[int(np.argmin(costs))]
@@ -412,11 +433,12 @@ class Problem:
         parameters: Sequence[FitParameter],
         max_nfev: int = 40,
         warm: dict[str, float] | None = None,
-        sweep: str | None = None,
+        sweep: Sequence[str] = (),
     ) -> Fit:
-        """Bounded least squares from the starts of :func:`starts_for`; with one effect
-        parameter, or with ``sweep`` naming a parameter, also from the best point of a sweep
-        over that parameter's range (one batched simulation)."""
+        """Bounded least squares from the starts of :func:`starts_for`, and from the best
+        point of a sweep (one batched simulation each): over the effect parameter's range
+        when there is one, then from there over the grid of the ``sweep`` parameters'
+        ranges."""
         from scipy.optimize import least_squares
 
         params = tuple(parameters)
@@ -426,12 +448,14 @@ class Problem:
         best = None
         effect_idx = [k for k, p in enumerate(params) if p.kind == "effect"]
         starts = starts_for(params, warm)
-        if len(effect_idx) == 1:
-            # A local fit can stall in the rugged landscape of a large mismatch, so first
-            # sweep the effect's range in one batched simulation and start from the best.
-            starts = [starts[0], self._grid_start(params, starts[0], effect_idx[0])]
-        elif sweep is not None:
-            starts = [starts[0], self._grid_start(params, starts[0], [p.name for p in params].index(sweep))]
+        # A local fit can stall in the rugged landscape of a large mismatch, so first sweep
+        # the effect's range in one batched simulation and start from the best.
+        grid = self._grid_start(params, starts[0], effect_idx) if len(effect_idx) == 1 else None
+        if sweep:
+            names = [p.name for p in params]
+            grid = self._grid_start(params, starts[0] if grid is None else grid, [names.index(n) for n in sweep])
+        if grid is not None:
+            starts = [starts[0], grid]
         for attempt, start in enumerate(starts):
             if attempt > 0 and best is not None and np.allclose(start, starts[0]):
                 break
