@@ -4,8 +4,8 @@
 2. Localise where its residuals concentrate (:mod:`sma_gym.diagnosis.localise`).
 3. Explain: refit the uncertain nominal parameters alone (the reference, "nominal refit",
    started also from the best point of a grid over the temperature shift, whose landscape
-   has several minima, and the convection scale), then, for every effect of the library, the nominal parameters together
-   with the effect's parameters. An effect is *supported* when all hold:
+   has several minima, and the convection scale), then, for every effect of the library,
+   the nominal parameters together with the effect's parameters. An effect is *supported* when all hold:
 
    * its effect is not *inert*: with the effect's parameters back at "off" its fit is the
      same (the gain of an inert fit came from the nominal parameters alone; if it fitted
