@@ -148,7 +148,9 @@ def _round_lines(result: Diagnosis) -> list[str]:
         "candidate (an ambiguous or unexplained round also fits its best names in pairs, and names a pair "
         "that beats each member alone; an effect found before moves to another form when that form fits "
         "as a new effect must); it stops when nothing is supported, the verdict is ambiguous, or the held-out "
-        "residual is within 2x the noise (normalised RMS 1 = noise).",
+        "residual is within 2x the noise (normalised RMS 1 = noise). When effects were found in more than "
+        "one round, each earlier one is then refitted out, and one the model no longer fits better by the BIC "
+        "bar and predicts better with is taken out (the last row says so and shows the model without it).",
         "",
         "| round | verdict | effect | held-out normalised RMS (refit only -> the round's model) | held-out position RMS | parameters at a bound |",
         "|---|---|---|---|---|---|",
@@ -160,6 +162,14 @@ def _round_lines(result: Diagnosis) -> list[str]:
         for name, form in (r.get("form_changed") or {}).items():
             effect = f"{effect}; " if effect else ""
             effect += f"{name} in its '{form}' form"
+        removed = r.get("removed")
+        if removed:
+            effect = f"{effect}; " if effect else ""
+            effect += (
+                f"then {removed['effect']} taken out (with it ΔBIC {removed['delta_bic_of_keeping']:+.1f}, "
+                f"held out {removed['heldout_gain_of_keeping']:+.1%}; without it "
+                f"{removed['heldout_normalised_rms_without']:.3g})"
+            )
         position = r["gap"]["heldout"].get("position", math.nan)
         bounds = "; ".join(r["parameters_at_bounds"]) or "none"
         lines.append(
@@ -194,6 +204,8 @@ def _round_label(result: Diagnosis, entry: dict[str, Any]) -> str:
         added = f"ambiguous,\ncarries {result.carried}"
     else:
         added = f"{entry['verdict']}:\nnothing added"
+    if entry.get("removed"):
+        added += f"\n- {entry['removed']['effect']}"
     return f"round {entry['round']}\n{added}"
 
 

@@ -71,6 +71,12 @@ Without held-out files the last ``HOLDOUT_FRACTION`` (30 %) of every fitted file
    held-out residual is within ``NOISE_STOP`` (2) times the noise. Every round's verdict,
    candidates and gap are kept (``Diagnosis.rounds``); the corrected model holds every
    effect found. ``max_rounds=1`` is a single round.
+7. Prune: when effects were found in more than one round, each effect of an earlier round
+   is refitted out of the final model; one with which the model no longer both fits better
+   by the BIC bar and predicts the held-out data better was standing in for a later one
+   and is taken out (the one whose removal predicts best; at most one). The last round's
+   record holds every such check (``pruning``) and the one removed (``removed``), and
+   shows the model without it.
 """
 
 from __future__ import annotations
@@ -141,6 +147,10 @@ measured (a power-law convection with an Abbe offset hidden, ramps fitted), the 
 from the shift's sweep alone stopped at 270x the noise held out with the scale at 1.0007,
 from the grid's point (1.59) it reached 32x; the convection in its power form, 379x and
 11x."""
+PRUNE_MARGIN = 0.0
+"""Held-out gain an effect found in an earlier round must still give once later rounds have
+added theirs (``_pruned``), besides the BIC bar: looser than the gain that let it in (10 %,
+25 %), so that only an effect that no longer helps on new data goes."""
 DEFAULT_MAX_ROUNDS = 3
 CONTROL_PERIOD_S = 1e-3
 MAX_DURATION_S = 1800.0
@@ -310,6 +320,7 @@ def diagnose(
 
     current, offset = nominal, 0.0
     found: list[str] = []
+    found_in: dict[str, int] = {}  # the round that named each effect found
     forms: dict[str, str] = {}  # an effect found in another than its default form
     rounds: list[dict[str, Any]] = []
     first: _Round | None = None
@@ -386,6 +397,7 @@ def diagnose(
                 carried = r.chosen.name
             break
         found.extend([r.effect] if isinstance(r.effect, str) else r.effect)
+        found_in.update({e: number for e in found if e not in found_in})
         current, offset, chosen_fit = r.chosen.fit.model, r.chosen.fit.offset, r.chosen.fit
         warm = chosen_fit.values_by_name()
         as_given = r.chosen.heldout_score
@@ -393,6 +405,20 @@ def diagnose(
             say(f"round {number}: held-out residual within {NOISE_STOP:g}x the noise; stopping")
             break
     assert first is not None and last is not None  # round 1 always runs
+    if chosen_fit is not None and len(set(found_in.values())) > 1:
+        latest = max(found_in.values())
+        earlier = [e for e in found if found_in[e] < latest]
+        problems = [fitting.Problem(nominal, d, control_period_s, threads) for d in (fit_data, held_data)]
+        name, fit, records = _pruned(earlier, chosen_fit, problems[0], problems[1], say)
+        rounds[-1]["pruning"] = records
+        if name is not None and fit is not None:
+            found.remove(name)
+            current, offset, chosen_fit = fit.model, fit.offset, fit
+            # The last round's row shows the model the rounds leave: without it.
+            record = next(r for r in records if r["removed"])
+            rounds[-1]["removed"] = record
+            rounds[-1]["heldout_normalised_rms"] = record["heldout_normalised_rms_without"]
+            rounds[-1]["gap"] = _gaps(current, offset, fit_data, held_data, control_period_s)
 
     if not found:
         verdict, effect, separating = first.verdict, first.effect, first.separating
@@ -548,6 +574,63 @@ def _round(
     if form_change is not None:
         verdict.form_change = form_change[:2]
     return verdict
+
+
+def _pruned(
+    earlier: Sequence[str],
+    full: fitting.Fit,
+    problem: fitting.Problem,
+    held_problem: fitting.Problem,
+    say: Callable[[str], None],
+) -> tuple[str | None, fitting.Fit | None, list[dict[str, Any]]]:
+    """An effect found in an earlier round that the later rounds' effects have made
+    redundant and the model without it (or None, None), and the record of every effect
+    refitted out (the figures that kept or removed it).
+
+    Each round judges its candidates on top of the effects found before, never those
+    effects on top of what came later, so an effect that stood in for a later one stays
+    (measured: a spread with warm surroundings hidden, round 1 named the surroundings with
+    a latent heat as a pair and round 2 the spread: the latent heat, named with confidence,
+    explained what the spread then explained better). Backward elimination after forward
+    selection, with looser bars than the entry's: each earlier effect is taken out and the
+    rest refitted; it stays only if the full model still fits better by the BIC bar *and*
+    predicts the held-out data better by more than ``PRUNE_MARGIN``. Of those that fail,
+    the one whose removal leaves the best held-out score goes (one per diagnosis: removing
+    one changes what the others explain).
+    """
+    n_eff = max(full.k + 2.0, full.n / full.correlation_time_samples)
+    kept = _candidate(full, held_problem, n_eff)
+    best: tuple[str, fitting.Fit, float] | None = None
+    records = []
+    for name in earlier:
+        say(f"pruning: {name} refitted out of the model")
+        params = tuple(p for p in full.parameters if not (p.kind == "effect" and p.effect == name))
+        # From the full fit and from the refit's grid, as a form fit: the others may have
+        # to move as far to take over as a new effect would.
+        fit = problem.fit(
+            f"without {name}", params, max_nfev=FORM_MAX_NFEV, warm=full.values_by_name(), sweep=REFIT_SWEEP
+        )
+        without = _candidate(fit, held_problem, n_eff)
+        delta_bic = kept.bic - without.bic
+        gain = 1.0 - kept.heldout_score / without.heldout_score if without.heldout_score > 0 else 0.0
+        record = {
+            "effect": name,
+            "delta_bic_of_keeping": delta_bic,
+            "heldout_gain_of_keeping": gain,
+            "heldout_normalised_rms_without": without.heldout_score,
+            "heldout_normalised_rms_with": kept.heldout_score,
+            "removed": False,
+        }
+        records.append(record)
+        say(f"pruning: keeping {name}: ΔBIC {delta_bic:+.1f}, held out {gain:+.1%}")
+        if delta_bic > -BIC_THRESHOLD or gain <= PRUNE_MARGIN:
+            if best is None or without.heldout_score < best[2]:
+                best = (name, without.fit, without.heldout_score)
+    if best is None:
+        return None, None, records
+    say(f"pruning: {best[0]} removed (the later effects explain what it did)")
+    next(r for r in records if r["effect"] == best[0])["removed"] = True
+    return best[0], best[1], records
 
 
 def _better_form(
