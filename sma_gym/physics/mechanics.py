@@ -17,13 +17,15 @@ Why implicit, and why this is at least as robust as the report's §5.5
 The report notes that the sigma <-> xi loop has a loop gain above 1 (here up to ~10), so
 evaluating one from the other diverges; it substitutes one into the other (eq. 5.11-5.12)
 and smooths sin() by a tanh (eq. 5.13) so that an explicit solver survives. We solve the
-two together for each step: one backward-Euler step of the mechanics is linear in x for a
-given xi, so x and sigma are closed-form functions of xi, and the step reduces to one
+two together for each step: one implicit step of the mechanics (the theta-method of
+``core.kernel``: trapezoidal where the step resolves the wire-mass mode, backward Euler where
+it cannot) is linear in x for a given xi, so x and sigma are closed-form functions of xi,
+and the step reduces to one
 scalar equation r(z) = z - Z(z) = 0 for the new martensite fraction z. Z is non-increasing
 in z (more martensite -> lower stress and, with latent heat, higher temperature -> lower
 bounds), so r is strictly increasing with slope >= 1: exactly one root, bracketed before we
 start, found by Newton's method with a bisection safeguard to 1e-13. No smoothing is
-needed, the cosine law stays exact, and backward Euler is unconditionally stable for the
+needed, the cosine law stays exact, and the implicit step is unconditionally stable for the
 stiff wire (D_A A / l0 ~ 2e4 N/m against an 8.8 g mass: a 250 Hz mode). The step length is
 therefore limited only by accuracy (see ``core.kernel``), not by stability.
 
@@ -166,7 +168,7 @@ def _evaluate(z, stick, x0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes):
 def solve_step(stick, x0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes):
     """One implicit step: returns (z, x1, sigma1, t1) and fills ``hyst[H_XI_NEW]``.
 
-    ``k_ext`` and ``b_ext`` hold the backward-Euler mechanics: the new position solves
+    ``k_ext`` and ``b_ext`` hold the implicit step's mechanics: the new position solves
     k_ext x1 = b_ext + A sigma(x1, z) unless ``stick`` (then x1 = x0). ``wire`` holds the
     wire's constants (:class:`WireConstants`); the hysterons are the first ``n_nodes``
     columns of the workspace ``hyst`` (:data:`HYSTERON_ROWS`): their shifts and weights,
