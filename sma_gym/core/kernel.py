@@ -262,8 +262,8 @@ def _substep(state, params, i, h, energy_j, hyst, n_nodes):
     # Mechanics by the theta-method, M (v1 - v0) / h = (1 - theta) F0 + theta F1 and
     # (x1 - x0) / h = (1 - theta) v0 + theta v1, as k_ext x1 = b_ext + A sigma(x1, z).
     # theta = 1 (backward Euler) damps the 250 Hz wire-mass mode numerically by a factor
-    # 1 / (1 + (omega h)^2) per step: over one period 0.47 at 0.15 ms steps, against the
-    # physical 0.32, so the overshoot at the cut depended on the step and the 30 us and
+    # 1 / sqrt(1 + (omega h)^2) per step: about 0.5 over one period at 0.15 ms steps, against
+    # the physical 0.32, so the overshoot at the cut depended on the step and the 30 us and
     # 10 us references parted by 0.33 mm / 7.7 K at 20 V. theta -> 1/2 (trapezoidal, no
     # numerical damping) where the step resolves the mode (omega h << 1), 1 where it cannot
     # (omega h >= 1: holding and cooling steps, which must not ring). Friction sticks by
