@@ -418,7 +418,6 @@ def diagnose(
             record = next(r for r in records if r["removed"])
             rounds[-1]["removed"] = record
             rounds[-1]["heldout_normalised_rms"] = record["heldout_normalised_rms_without"]
-            rounds[-1]["gap"] = _gaps(current, offset, fit_data, held_data, control_period_s)
 
     if not found:
         verdict, effect, separating = first.verdict, first.effect, first.separating
@@ -438,6 +437,8 @@ def diagnose(
     say(f"verdict {verdict}; measuring the gap before and after")
     gap_before = _gaps(nominal, 0.0, fit_data, held_data, control_period_s)
     gap_after = _gaps(corrected, offset, fit_data, held_data, control_period_s)
+    if rounds[-1].get("removed"):
+        rounds[-1]["gap"] = gap_after  # the model the rounds leave, without the effect taken out
     gap_refit = _gaps(first.ref.fit.model, first.ref.fit.offset, fit_data, held_data, control_period_s)
     by_file = {
         "nominal": _gaps_by_file(nominal, 0.0, fit_data, held_data, control_period_s),
