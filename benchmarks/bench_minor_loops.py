@@ -72,8 +72,10 @@ REVERSAL_FRACTIONS = (0.1, 0.3, 0.5, 0.7, 0.9)
 SAMPLE_K = 0.01
 """Temperature step of the histories [K]."""
 RIPPLE_P2P_K = 0.5
-"""Peak-to-peak ripple about the reversal temperature [K] (a 500 Hz PWM on a 10 V wire)."""
+"""Peak-to-peak ripple about the reversal temperature [K]: the largest of a 500 Hz PWM at
+10 V (the standard wire heats at 254 K/s at full power, for at most 2 ms a period)."""
 RIPPLE_CYCLES = 5000
+"""Ripple cycles (ten seconds of a 500 Hz PWM)."""
 SWITCH_BAND_K = 1e-9
 """Temperature reversal that re-anchors the rescaled laws (any reversal, as written)."""
 

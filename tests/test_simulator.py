@@ -367,7 +367,7 @@ def _minor_loop_bench():
 
 def test_the_minor_loop_comparison_measures_what_docs_model_md_says(monkeypatch):
     """The comparison of docs/model.md §3: of the candidate laws only the kernel's Preisach
-    law moves back within about a kelvin *and* neither jumps nor drifts under ripple; the
+    law starts back within 2 K *and* neither jumps nor drifts under ripple; the
     rescaled cosine jumps, the continuity-fixed and the Duhem-type laws drift, the play law
     waits for the whole hysteresis. The comparison's evaluation of the kernel's two laws is
     the kernel's own (within the 1 ms sampling of its recorded temperatures)."""
