@@ -122,7 +122,11 @@ class Branches:
 
 
 def hysterons(b: Branches, temp_c: np.ndarray, sigma_pa: np.ndarray, xi0: float = 1.0) -> np.ndarray:
-    """Sum of play operators (the kernel's laws), each clipped between its two branches."""
+    """Sum of play operators (the kernel's laws), each clipped between its two branches.
+
+    A temperature-driven restatement for the comparison only (the kernel solves the law
+    inside its implicit step and cannot be driven by a temperature history);
+    :func:`kernel_check` holds it to the simulator's own martensite fraction."""
     nodes = np.full(len(b.weights), xi0)
     out = np.empty(temp_c.size)
     for j, (t, s) in enumerate(zip(temp_c, sigma_pa)):
@@ -208,9 +212,10 @@ def law_function(name: str, model: ModelConfig) -> Callable[[np.ndarray, np.ndar
     raise ValueError(f"law = {name!r}: expected one of {LAWS}")
 
 
-def ramp(a: float, b_: float) -> np.ndarray:
-    n = max(2, int(round(abs(b_ - a) / SAMPLE_K)) + 1)
-    return np.linspace(a, b_, n)
+def ramp(start_c: float, end_c: float) -> np.ndarray:
+    """Temperatures from ``start_c`` to ``end_c`` in steps of about ``SAMPLE_K``."""
+    n = max(2, int(round(abs(end_c - start_c) / SAMPLE_K)) + 1)
+    return np.linspace(start_c, end_c, n)
 
 
 def measure(law: Callable[[np.ndarray, np.ndarray], np.ndarray], sigma_pa: float) -> dict[str, float]:
