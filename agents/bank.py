@@ -59,7 +59,7 @@ from sma_gym_agents.policies import ControllerPolicy, env_attr
 def _require_scheme(env: Any, scheme: str, policy: str) -> None:
     try:
         actual = env_attr(env, "scheme")
-    except AttributeError:
+    except ValueError:  # not an sma-gym env, or one without a bank
         actual = None
     if actual is None:
         raise ValueError(f"{policy}: the env has no multiplexed bank (scheme): expected SMAMultiplexed-v0")

@@ -10,7 +10,8 @@ import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
-from sma_gym._io import check_output_folder, locked_folder
+from sma_gym import fidelity
+from sma_gym._io import check_output_folder, locked_folder, remove_outputs
 from sma_gym.cli import Command
 from sma_gym.extras import extra_error
 
@@ -27,7 +28,10 @@ except ModuleNotFoundError as err:
 # sma-gym fidelity
 # --------------------------------------------------------------------------------------
 def _fidelity_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--out", help="folder for the PNG plots")
+    p.add_argument("--out", help="folder for the PNG plots; must be new or empty unless --overwrite")
+    p.add_argument(
+        "--overwrite", action="store_true", help="replace the plots of an earlier run in --out (nothing else there)"
+    )
     p.add_argument(
         "--json", action="store_true", help='print {"rows": [...], "summary": {...}} as JSON instead of a table'
     )
@@ -36,11 +40,23 @@ def _fidelity_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
+FIDELITY_OUTPUTS = (
+    "fig4_9_resistance_loop.png",
+    "fig5_2_voltage_steps.png",
+    "fig6_4_holding_duty.png",
+    "fig8_efficiency.png",
+    "fig9_multiplexed_rise.png",
+    fidelity.BENCH_PLOT,
+)
+"""What ``sma-gym fidelity --out`` writes: what ``--overwrite`` deletes first, and nothing else."""
+
+
 def _fidelity(args: argparse.Namespace) -> int:
     if args.out is None:
         return report_targets.main(args.out, args.json, quick=args.quick)
-    check_output_folder(args.out)
+    check_output_folder(args.out, must_be_empty=not args.overwrite)
     with locked_folder(args.out):
+        remove_outputs(args.out, FIDELITY_OUTPUTS)
         return report_targets.main(args.out, args.json, quick=args.quick)
 
 
@@ -66,7 +82,16 @@ evaluation takes minutes per seed), so a typo such as 1000000 would run for week
 
 
 def _evaluate_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--out", help="folder for the markdown report, the JSON results and the PNG plots")
+    p.add_argument(
+        "--out",
+        help="folder for the markdown report, the JSON results and the PNG plots; must be new or empty unless "
+        "--overwrite",
+    )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the report, results and plots of an earlier evaluation in --out (nothing else there)",
+    )
     p.add_argument("--policy", action="append", help="a stable-baselines3 model (.zip) written by train.py; repeatable")
     p.add_argument("--json", action="store_true", help="print every metric as one JSON document")
     p.add_argument(
@@ -106,9 +131,23 @@ def _evaluate(args: argparse.Namespace) -> int:
         _require_scored(policy, agent.env_id, experiments)
     if args.out is None:
         return evaluate(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
-    check_output_folder(args.out)
+    check_output_folder(args.out, must_be_empty=not args.overwrite)
     with locked_folder(args.out):
+        # An earlier evaluation's figures of other experiments or policies would sit beside
+        # this report as if they were its own.
+        remove_outputs(args.out, EVALUATE_OUTPUTS)
         return evaluate(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
+
+
+EVALUATE_OUTPUTS = (
+    "evaluation.md",
+    "evaluation.json",
+    "fig6_[2356]_*.png",
+    "self_sensing_*.png",
+    "chapter7_*.png",
+    "fig9_multiplexed.png",
+)
+"""What ``sma-gym evaluate --out`` writes: what ``--overwrite`` deletes first, and nothing else."""
 
 
 def _require_scored(policy: str, env_id: str, experiments: Sequence[str]) -> None:

@@ -46,11 +46,19 @@ def env_attr(env: Any, name: str, per_env: bool = False) -> Any:
     ``get_attr`` gives one entry per sub-env, kept as an array (a native vector env's own
     attribute already is one).
     """
-    if hasattr(env, "get_attr"):
-        values = env.get_attr(name)
-        return np.asarray(values, dtype=float) if per_env else values[0]
-    target = getattr(env, "unwrapped", env)
-    return getattr(target, name)
+    try:
+        if hasattr(env, "get_attr"):
+            values = env.get_attr(name)
+            return np.asarray(values, dtype=float) if per_env else values[0]
+        return getattr(getattr(env, "unwrapped", env), name)
+    except AttributeError:
+        # Another package's env (CartPole, say) has none of the features a controller reads.
+        spec = getattr(env, "spec", None)
+        which = getattr(spec, "id", None) or type(getattr(env, "unwrapped", env)).__name__
+        raise ValueError(
+            f"env {which!r} has no {name!r}: expected an sma-gym env (gym.make('sma_gym:SMATracking-v0'), "
+            "its vector env or sma_gym.envs.sb3.SB3VecEnv around one)"
+        ) from None
 
 
 class ControllerPolicy:

@@ -798,7 +798,9 @@ def run(quick: bool = False) -> FidelityResult:
     # The step-and-sine traces are large (about 7 MB each with three seeds) and not plotted.
     for key in [k for k in results.traces if k[0] in ("6.1", "7")]:
         del results.traces[key]
-    result = FidelityResult(rows=fidelity.order_rows(rows), plots=fidelity.plant_plots(plant))
+    result = FidelityResult(
+        rows=fidelity.order_rows(rows), plots=fidelity.plant_plots(plant), skipped=fidelity.skipped_plots()
+    )
     result.plots.update(harness_plots(results, plan))
     return result
 

@@ -909,15 +909,14 @@ def grid_markdown(result: dict[str, Any]) -> str:
 
 def run_real(folder: Path | None, max_rounds: int, threads: int | None = None) -> dict[str, Any]:
     """Time the four-run diagnosis of the real bench and a reference simulation (see the module docstring)."""
-    from sma_gym.calibration import TWIN_RUNS
-    from sma_gym.data import find_real_data_dir, load_trace
+    from sma_gym.data import REAL_BENCH_RUNS, find_real_data_dir, load_trace
     from sma_gym.diagnosis import fitting
     from sma_gym.params import preset
 
     where = folder or find_real_data_dir()
     if where is None or not Path(where).is_dir():
         raise SystemExit(f"--real: the shared real runs are not at {where} (give their folder)")
-    traces = [load_trace(Path(where) / name) for name in TWIN_RUNS]
+    traces = [load_trace(Path(where) / name) for name in REAL_BENCH_RUNS]
     nominal = ModelConfig(preset("bench-0.5mm-ht-datasheet"))
     # The reference runs on one thread: the ratio then includes what the threads gain.
     problem = fitting.Problem(
@@ -936,7 +935,7 @@ def run_real(folder: Path | None, max_rounds: int, threads: int | None = None) -
     result = diagnose(traces, [], nominal, max_rounds=max_rounds, threads=threads)
     seconds = time.perf_counter() - t0
     return {
-        "runs": list(TWIN_RUNS),
+        "runs": list(REAL_BENCH_RUNS),
         "max_rounds": max_rounds,
         "threads": threads,
         "seconds": seconds,

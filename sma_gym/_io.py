@@ -25,7 +25,7 @@ import json
 import os
 import socket
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +38,7 @@ __all__ = [
     "locked_folder",
     "read_json_object",
     "read_text",
+    "remove_outputs",
     "sha256_file",
     "write_bytes",
     "write_json",
@@ -235,7 +236,8 @@ def check_output_folder(folder: str | Path, what: str = "--out", *, must_be_empt
         raise ValueError(f"{what} {str(target)!r}: exists and is not a folder")
     _check_writable_dir(_nearest_existing(target), what, target)
     if must_be_empty and target.is_dir():
-        entries = sorted(p.name for p in target.iterdir())
+        # A lock left by a killed run is not an output (locked_folder takes a stale one over).
+        entries = sorted(p.name for p in target.iterdir() if p.name != LOCK_NAME)
         if entries:
             shown = ", ".join(entries[:5]) + (", ..." if len(entries) > 5 else "")
             raise ValueError(
@@ -243,6 +245,19 @@ def check_output_folder(folder: str | Path, what: str = "--out", *, must_be_empt
                 "choose a new folder or pass --overwrite"
             )
     return target
+
+
+def remove_outputs(folder: str | Path, patterns: Sequence[str]) -> list[Path]:
+    """Delete the files in ``folder`` that match ``patterns`` (glob, this folder only): an
+    earlier run's outputs, which ``--overwrite`` replaces, so that none of them is read as
+    this run's. Nothing else in the folder is touched; returns what was deleted."""
+    target = Path(folder)
+    if not target.is_dir():
+        return []
+    gone = sorted({p for pattern in patterns for p in target.glob(pattern) if p.is_file() or p.is_symlink()})
+    for path in gone:
+        path.unlink()
+    return gone
 
 
 def check_output_file(path: str | Path, what: str = "--out", *, overwrite: bool = False) -> Path:

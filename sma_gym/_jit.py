@@ -17,13 +17,25 @@ in memory (slower first call, identical results).
 from __future__ import annotations
 
 import functools
+import os
 import warnings
 from collections.abc import Callable
 from typing import Any
 
 import numba
 
-__all__ = ["caching_available", "njit"]
+__all__ = ["available_cores", "caching_available", "njit"]
+
+
+def available_cores() -> int:
+    """The cores this process may run on: its CPU affinity (``taskset``, a cgroup's cpuset,
+    a batch scheduler's allocation) where the platform reports one, else every core. What
+    sizes thread and process pools: ``os.cpu_count()`` counts the machine's cores, so two
+    runs under ``taskset -c 0`` would time-share one."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on every platform (macOS, Windows)
+        return os.cpu_count() or 1
 
 
 def _probe() -> None:  # pragma: no cover - never called, only located

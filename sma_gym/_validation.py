@@ -132,7 +132,9 @@ def require_action(action: Any, n: int) -> np.ndarray:
                 return a
         elif np.isfinite(a).all():
             return a
-    expected = f"expected a float array of shape ({n},) (dtype float32 or float64) with finite values in [-1, 1]"
+    expected = (
+        f"expected a float array of shape ({n},) (dtype float32 or float64) with finite values (clipped to [-1, 1])"
+    )
     a = _numeric_array("action", action, expected)
     if a.shape == () and n == 1:
         a = a.reshape(1)
@@ -169,7 +171,7 @@ def require_actions(actions: Any, num_envs: int, width: int = 1) -> np.ndarray:
         if np.isfinite(a).all():
             return a
     shapes = f"({m}, {n})" + (f" or ({m},)" if n == 1 else "")
-    expected = f"expected a float array of shape {shapes} with finite values in [-1, 1]"
+    expected = f"expected a float array of shape {shapes} with finite values (clipped to [-1, 1])"
     a = _numeric_array("actions", actions, expected)
     if n == 1 and a.shape == (m,):
         a = a.reshape(m, 1)

@@ -195,10 +195,6 @@ def calibrate_bench(fit_file: str = "step01.csv", check_file: str = "ramp01.csv"
     return values
 
 
-TWIN_RUNS = ("step01.csv", "ramp01.csv", "step03.csv", "step07.csv")
-"""The shared real runs the ``bench-0.5mm-ht`` twin is identified on (all four)."""
-
-
 def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = True) -> ModelConfig:
     """Identify the ``bench-0.5mm-ht`` twin on the four shared real runs and write it.
 
@@ -209,14 +205,14 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
     """
     from pathlib import Path
 
-    from sma_gym.data import find_real_data_dir, load_trace
+    from sma_gym.data import REAL_BENCH_RUNS, find_real_data_dir, load_trace
     from sma_gym.diagnosis import diagnose
     from sma_gym.models import twin_path
 
     where = Path(folder) if folder else find_real_data_dir()
     if where is None or not where.is_dir():
         raise SystemExit("the shared real runs (../shared/data/real) are not on this machine")
-    traces = [load_trace(where / name) for name in TWIN_RUNS]
+    traces = [load_trace(where / name) for name in REAL_BENCH_RUNS]
     nominal = ModelConfig(preset("bench-0.5mm-ht-datasheet"))
     result = diagnose(traces, [], nominal, max_rounds=max_rounds, progress=lambda m: print("twin:", m, flush=True))
     corrected = result.gap_by_file["corrected"]
@@ -242,7 +238,7 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
         ),
         result.corrected_model.effects,
         notes=(
-            f"Identified by python -m sma_gym.calibration twin from bench-0.5mm-ht-datasheet on {', '.join(TWIN_RUNS)} "
+            f"Identified by python -m sma_gym.calibration twin from bench-0.5mm-ht-datasheet on {', '.join(REAL_BENCH_RUNS)} "
             f"(last 30 % of each held out), {len(result.rounds)} round(s); effects found: {found}. "
             f"Position RMS, fitted part: {gap}; held-out part: {held}. "
             f"Fitted parameters at a bound (findings, docs/diagnosis.md): {at_bounds}."

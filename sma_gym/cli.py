@@ -227,6 +227,11 @@ def _print_diagnosis(result: Any, paths: dict[str, Path], as_json: bool) -> None
             print(
                 f"  {data:8s} {output:10s} RMS {before:.4g} -> {result.gap_after[data].get(output, float('nan')):.4g}"
             )
+    if result.kept_as_given:
+        print(
+            "  note: the nominal refit predicted the held-out data worse than the model as given, so the "
+            "corrected model is the model as given (do the fitted data move the actuator through its range?)"
+        )
     print(f"report: {paths['report']}\ncorrected model: {paths['model']}")
 
 

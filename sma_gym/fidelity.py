@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -198,6 +199,8 @@ class FidelityResult:
 
     rows: list[Row] = field(default_factory=list)
     plots: dict[str, Callable[[Path], Path]] = field(default_factory=dict)
+    skipped: dict[str, str] = field(default_factory=dict)
+    """Plots not drawn on this machine, with the reason (printed to stderr with ``--out``)."""
 
     @property
     def summary(self) -> Summary:
@@ -242,6 +245,8 @@ def write_outputs(result: FidelityResult, out: str | None, as_json: bool) -> int
         folder.mkdir(parents=True, exist_ok=True)
         for name, draw in result.plots.items():
             draw(folder / name)
+        for name, reason in result.skipped.items():
+            print(f"sma-gym fidelity: {name} not drawn: {reason}", file=sys.stderr)
     if as_json:
         print(
             json.dumps(
@@ -1029,9 +1034,25 @@ def plant_rows(runs: PlantRuns) -> list[Row]:
 def plant_plots(runs: PlantRuns) -> dict[str, Callable[[Path], Path]]:
     from sma_gym import fidelity_plots as fp
 
-    return {
+    plots = {
         "fig5_2_voltage_steps.png": lambda out: fp.plot_voltage_steps(runs.steps, out),
         "fig4_9_resistance_loop.png": lambda out: fp.plot_resistance_loop(runs.loop, runs.first_rise, out),
         "fig6_4_holding_duty.png": lambda out: fp.plot_holding(runs.holding, holding_slope_per_m(runs.holding), out),
-        "bench_0.5mm_ht_vs_measured.png": lambda out: fp.plot_bench(out),
     }
+    if BENCH_PLOT not in skipped_plots():
+        plots[BENCH_PLOT] = fp.plot_bench
+    return plots
+
+
+BENCH_PLOT = "bench_0.5mm_ht_vs_measured.png"
+
+
+def skipped_plots() -> dict[str, str]:
+    """The plots this machine cannot draw, with the reason: the real bench's runs are not
+    shipped with the package (``../shared/data/real`` beside a checkout)."""
+    from sma_gym.data import REAL_BENCH_RUNS, find_real_data_dir
+
+    folder = find_real_data_dir()
+    if folder is not None and all((folder / name).is_file() for name in REAL_BENCH_RUNS):
+        return {}
+    return {BENCH_PLOT: f"the real bench's runs ({', '.join(REAL_BENCH_RUNS)}) are not in ../shared/data/real"}

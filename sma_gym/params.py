@@ -694,7 +694,13 @@ class ActuatorParams:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ActuatorParams:
-        """Inverse of :meth:`to_dict`; unknown keys raise ``ValueError``."""
+        """Inverse of :meth:`to_dict`; unknown and missing parameters raise ``ValueError``.
+
+        Every parameter must be given: a file that leaves one out would otherwise run with the
+        standard actuator's value (a 0.5 mm wire's file without its diameter as the report's
+        0.3 mm wire), and a file of an older version without a newer parameter with today's
+        default rather than the model it was saved from. ``name`` and ``description`` may be
+        left out."""
         if not isinstance(data, dict):
             raise ValueError(f"actuator parameters = {data!r}: expected a JSON object")
         kwargs: dict[str, Any] = {}
@@ -710,6 +716,13 @@ class ActuatorParams:
                 if unknown:
                     raise ValueError(f"unknown parameter(s) {sorted(unknown)} in group {key!r}; known: {sorted(known)}")
                 defaults = {f.name: f.default for f in dataclasses.fields(groups[key])}
+                missing = [name for name in defaults if name not in value]
+                if missing:
+                    shown = ", ".join(f"{name} (the standard actuator's: {defaults[name]!r})" for name in missing)
+                    raise ValueError(
+                        f"missing parameter(s) in group {key!r}: {shown}; a model file gives every parameter, "
+                        "so that none silently takes the standard actuator's value"
+                    )
                 kwargs[key] = groups[key](
                     **{k: _json_typed(f"{key}.{k}", _json_float(v), defaults[k]) for k, v in value.items()}
                 )
@@ -719,6 +732,12 @@ class ActuatorParams:
                 kwargs[key] = value
             else:
                 raise ValueError(f"unknown key {key!r} in actuator parameters")
+        missing_groups = [key for key in groups if key not in data]
+        if missing_groups:
+            raise ValueError(
+                f"actuator parameters: missing group(s) {missing_groups}: a model file gives every group "
+                f"({', '.join(groups)}) and every parameter in it (ModelConfig.save writes them all)"
+            )
         return cls(**kwargs)
 
 

@@ -130,6 +130,28 @@ def test_no_candidates_is_the_nominal_refit_alone():
     assert first["gap"] == result.gap_after
 
 
+def test_a_refit_that_predicts_worse_than_the_model_as_given_is_not_shipped(tmp_path, capsys):
+    """Five seconds of a steps run that hardly move the wire (duty below 0.04): the nominal
+    refit overfits them and predicts the held-out end worse than the nominal as given (0.20
+    against 0.05 mm RMS, found by a new user), so the corrected model is the model as given,
+    and the report and the console say so."""
+    run = ["synth", "--out", str(tmp_path / "run.csv"), "--effect", "transformation_spread", "--excitation", "steps"]
+    assert main([*run, "--duration", "20"]) == 0
+    lines = (tmp_path / "run.csv").read_text().splitlines(keepends=True)
+    (tmp_path / "start.csv").write_text("".join(lines[:5001]))
+    assert main(["diagnose", str(tmp_path / "start.csv"), "--max-rounds", "1", "--out", str(tmp_path / "d")]) == 0
+    assert "the corrected model is the model as given" in capsys.readouterr().out
+    report = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
+    assert report["kept_as_given"] is True and report["verdict"] != "effect"
+    first = report["rounds"][0]
+    assert first["nominal_refit_heldout_normalised_rms"] > first["as_given_heldout_normalised_rms"]
+    assert first["heldout_normalised_rms"] == first["as_given_heldout_normalised_rms"]
+    assert report["gap_after"] == report["gap_before"]
+    shipped = load_model(tmp_path / "d" / "corrected_model.json")
+    assert shipped.actuator == ModelConfig().actuator and shipped.effects == ModelConfig().effects
+    assert "model as given" in (tmp_path / "d" / "diagnosis.md").read_text()
+
+
 def test_without_heldout_files_the_end_of_each_file_is_held_out():
     fit = synthetic("sensor_lag", 5, "random", 40.0)
     result = diagnose([fit], [], ModelConfig())

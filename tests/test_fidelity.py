@@ -25,20 +25,13 @@ from sma_gym.report_targets import (
     within_tolerance,
 )
 from sma_gym_agents import report_targets as table
+from sma_gym_agents.commands import FIDELITY_OUTPUTS
 from sma_gym_agents.evaluation import CHAPTER_8_CASES, Record, Results
 
 MIN_PASS_COUNT = 82
 """Rows with status ``pass`` in the quick run of the current model (raise it, never lower it)."""
 
 SPEC = Path(__file__).resolve().parents[2] / "shared" / "spec" / "REPORT_TARGETS.md"
-PLOTS = (
-    "fig5_2_voltage_steps.png",
-    "fig4_9_resistance_loop.png",
-    "fig6_4_holding_duty.png",
-    "fig8_efficiency.png",
-    "fig9_multiplexed_rise.png",
-    "bench_0.5mm_ht_vs_measured.png",
-)
 
 
 @pytest.fixture(scope="module")
@@ -182,14 +175,50 @@ def test_cli_prints_json_rows_and_writes_the_plots(tmp_path, capsys, monkeypatch
     assert data["summary"]["counts"] == result.summary.counts
     # The table names the code it measured (the model changes under the same ids).
     assert data["provenance"] == provenance()
-    for name in PLOTS:
+    # Exactly the outputs --overwrite would replace, less the plots this machine cannot draw.
+    drawn = set(FIDELITY_OUTPUTS) - set(result.skipped)
+    assert {p.name for p in tmp_path.iterdir()} == drawn
+    for name in drawn:
         path = tmp_path / name
-        assert path.exists() and path.stat().st_size > 10_000
+        assert path.stat().st_size > 10_000
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert main(["fidelity", "--quick"]) == code
     *_, summary, code_line = capsys.readouterr().out.rstrip().splitlines()
     assert summary == result.summary.line()
     assert code_line == f"Code: {describe(provenance())}"
+
+
+def test_a_second_run_into_the_same_folder_needs_overwrite_and_replaces_only_its_plots(
+    tmp_path, capsys, monkeypatch, result
+):
+    monkeypatch.setattr(table, "run", lambda quick=False: result)
+    out = tmp_path / "fid"
+    out.mkdir()
+    mine = out / "notes.txt"
+    mine.write_text("the user's")
+    assert main(["fidelity", "--quick", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "not empty" in err and "notes.txt" in err and "--overwrite" in err
+    assert [p.name for p in out.iterdir()] == ["notes.txt"]  # nothing written, nothing changed
+    # An earlier run's plot that this run does not draw (here: as if the bench's data were
+    # gone) must not stay beside the new ones as if it were theirs.
+    stale = out / fidelity.BENCH_PLOT
+    stale.write_bytes(b"old")
+    monkeypatch.setattr(
+        table, "run", lambda quick=False: fidelity.FidelityResult(result.rows, {}, {fidelity.BENCH_PLOT: "why"})
+    )
+    main(["fidelity", "--quick", "--overwrite", "--out", str(out)])
+    assert f"{fidelity.BENCH_PLOT} not drawn: why" in capsys.readouterr().err
+    assert not stale.exists() and mine.read_text() == "the user's"
+
+
+def test_the_bench_plot_is_skipped_with_a_reason_without_the_real_runs(monkeypatch):
+    import sma_gym.data
+
+    monkeypatch.setattr(sma_gym.data, "find_real_data_dir", lambda: None)
+    assert set(fidelity.skipped_plots()) == {fidelity.BENCH_PLOT}
+    assert "step01.csv" in fidelity.skipped_plots()[fidelity.BENCH_PLOT]
+    assert fidelity.BENCH_PLOT not in fidelity.plant_plots(None)
 
 
 # --------------------------------------------------------------------------------------

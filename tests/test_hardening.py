@@ -5,6 +5,7 @@ One section per item of the issue; each test fails on the code before the fix.
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -302,6 +303,36 @@ def test_commands_check_out_before_the_work(tmp_path, capsys, monkeypatch, comma
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "--out" in err and "a-file" in err
+
+
+def test_evaluate_into_an_earlier_report_needs_overwrite_and_then_drops_its_stale_figures(
+    tmp_path, capsys, monkeypatch
+):
+    import sma_gym_agents.commands
+    from sma_gym.cli import main
+
+    written = []
+
+    def fake_evaluate(out, *args):
+        written.append(sorted(p.name for p in Path(out).iterdir()))
+        (Path(out) / "evaluation.md").write_text("new")
+        return 0
+
+    monkeypatch.setattr(sma_gym_agents.commands, "evaluate", fake_evaluate)
+    out = tmp_path / "ev"
+    out.mkdir()
+    # An earlier evaluation with an agent and feedforward controllers, and a file of the user's.
+    for name in ("evaluation.md", "evaluation.json", "fig6_5_step_feedforward.png", "chapter7_fan_sine.png"):
+        (out / name).write_text("old")
+    (out / "my_notes.md").write_text("keep")
+    argv = ["evaluate", "--experiments", "6.1", "--baselines", "PID", "--seeds", "1", "--out", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "not empty" in err and "--overwrite" in err
+    assert not written and (out / "fig6_5_step_feedforward.png").read_text() == "old"
+    assert main([*argv, "--overwrite"]) == 0
+    assert written == [[".sma-gym.lock", "my_notes.md"]]  # the earlier outputs gone before the work
+    assert sorted(p.name for p in out.iterdir()) == ["evaluation.md", "my_notes.md"]
 
 
 def test_evaluate_checks_policies_and_experiments_before_the_work(tmp_path, capsys, monkeypatch):
@@ -872,6 +903,27 @@ def test_resume_refuses_a_folder_that_is_not_a_sweep(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["data.csv"]
 
 
+@pytest.mark.parametrize(("group", "name"), [("wire", "length_m"), ("wire", "minor_loop_law"), ("sensors", None)])
+def test_a_model_file_without_a_parameter_is_refused_naming_it(tmp_path, group, name):
+    """Found by a new user: a file whose ``wire.length_m`` was deleted ran as the standard
+    wire's 0.273 m without a word."""
+    import gymnasium as gym
+
+    from sma_gym.model import load_model
+
+    data = load_model("bench-0.5mm-ht-datasheet").to_dict()
+    if name is None:
+        del data["actuator"][group]
+    else:
+        del data["actuator"][group][name]
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(data))
+    before = path.read_bytes()
+    with pytest.raises(ValueError, match=rf"model\.json.*missing .*{name or group}"):
+        gym.make("sma_gym:SMATracking-v0", model=str(path))
+    assert path.read_bytes() == before
+
+
 def test_model_files_hold_numbers_where_the_model_has_numbers(tmp_path):
     import gymnasium as gym
 
@@ -1238,3 +1290,17 @@ def test_a_model_file_with_an_unknown_key_or_a_non_string_name_is_refused(tmp_pa
         ModelConfig.from_dict({**twin, "actuator": {**twin["actuator"], "name": 5}})
     with pytest.raises(ValueError, match=r"'notes' = \['a'\]: expected a string"):
         ModelConfig.from_dict({**twin, "notes": ["a"]})
+
+
+def test_a_controller_on_another_package_env_says_it_needs_an_sma_gym_env():
+    """Found by a new user: ``ControllerPolicy("PID", gym.make("CartPole-v1"))`` raised a raw
+    AttributeError about ``feature_names``."""
+    import gymnasium as gym
+
+    from sma_gym_agents import ControllerPolicy
+    from sma_gym_agents.bank import FixedSlotBank
+
+    with pytest.raises(ValueError, match=r"'CartPole-v1' has no 'feature_names': expected an sma-gym env"):
+        ControllerPolicy("PID", gym.make("CartPole-v1"))
+    with pytest.raises(ValueError, match="expected SMAMultiplexed-v0"):
+        FixedSlotBank("PID", gym.make("sma_gym:SMATracking-v0"))

@@ -146,13 +146,12 @@ def test_bad_model_files_give_clear_errors(tmp_path):
     with pytest.raises(ValueError, match="not valid JSON"):
         load_model(str(bad))
     wrong = tmp_path / "wrong.json"
-    wrong.write_text(json.dumps({"format": "sma-gym-model", "version": 1, "effects": {"warp_drive": {}}}))
+    complete = ModelConfig().to_dict()  # a model file gives every parameter
+    wrong.write_text(json.dumps({**complete, "effects": {"warp_drive": {}}}))
     with pytest.raises(ValueError, match="warp_drive"):
         load_model(str(wrong))
     out_of_bounds = tmp_path / "oob.json"
-    out_of_bounds.write_text(
-        json.dumps({"format": "sma-gym-model", "version": 1, "effects": {"latent_heat": {"change_j_kg": -1e6}}})
-    )
+    out_of_bounds.write_text(json.dumps({**complete, "effects": {"latent_heat": {"change_j_kg": -1e6}}}))
     with pytest.raises(ValueError, match="change_j_kg"):
         load_model(str(out_of_bounds))
     with pytest.raises(ValueError, match="does not exist"):

@@ -116,6 +116,23 @@ def test_bad_sweep_options_exit_2(capsys, tmp_path):
     assert main(["--workers", "2"]) == 2 and "--seeds" in capsys.readouterr().err
 
 
+@pytest.mark.skipif(not hasattr(__import__("os"), "sched_getaffinity"), reason="no CPU affinity on this platform")
+def test_workers_default_to_the_cores_this_process_may_run_on(monkeypatch):
+    """Found by a new user: under ``taskset -c 0`` the default ran two seeds at once on the
+    one allowed core (``os.cpu_count()`` counts the machine's)."""
+    import argparse
+    import os
+
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
+    args = argparse.Namespace(seeds=4, workers=None, resume=False, overwrite=False)
+    sweep_module.check_sweep_args(args)
+    assert args.workers == 1
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1, 2})
+    args.workers = None
+    sweep_module.check_sweep_args(args)
+    assert args.workers == 3
+
+
 FAKE_RUN = """
 import json, sys
 from pathlib import Path

@@ -179,3 +179,14 @@ def test_one_card_type_writes_and_reads_one_suffix(tmp_path):
     for bad in (-0.1, float("inf"), "0.1"):
         with pytest.raises(ValueError, match="residual_filter_s = .*time constant >= 0 s"):
             PolicyCard.from_dict({**old, "residual_filter_s": bad})
+
+
+def test_goal_lines_print_enough_places_to_tell_the_figures_apart():
+    """Found by a new user: "met: RMS step below every baseline (agent_mm = 1.063,
+    best_baseline_mm = 1.063)", which read as a tie, was 1.06275 against 1.06336."""
+    from sma_gym_agents.training.compare import _places_that_tell_apart
+
+    assert _places_that_tell_apart([1.06275, 1.06336]) == 4
+    assert _places_that_tell_apart([0.8, 1.2]) == 3
+    assert _places_that_tell_apart([0.5, 0.5]) == 3  # equal figures are not spread out
+    assert _places_that_tell_apart([1.0, 1.0 + 1e-9]) == 6  # at most six

@@ -241,6 +241,20 @@ def _with_goals(
     }
     lines += ["", "## Goals", ""]
     for name, g in goals.items():
-        figures = ", ".join(f"{k} = {v:.3f}" for k, v in g.items() if k != "met")
+        numbers = {k: v for k, v in g.items() if k != "met"}
+        places = _places_that_tell_apart(list(numbers.values()))
+        figures = ", ".join(f"{k} = {v:.{places}f}" for k, v in numbers.items())
         lines.append(f"- {'met' if g['met'] else 'NOT met'}: {name} ({figures})")
     return "\n".join(lines) + "\n", goals
+
+
+def _places_that_tell_apart(values: Sequence[float], least: int = 3, most: int = 6) -> int:
+    """Decimal places (``least`` to ``most``) at which values that differ also print
+    differently: a goal "met" at 1.06275 against 1.06336 must not read 1.063 against 1.063."""
+    places = least
+    while places < most:
+        shown = [f"{v:.{places}f}" for v in values]
+        if len(set(shown)) == len({float(v) for v in values}):
+            break
+        places += 1
+    return places

@@ -282,7 +282,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="train N seeds (--seed .. --seed+N-1) of this configuration in parallel processes, each in <out>/seed-<s>/, "
         "and write every goal over the seeds (interquartile mean, 95 %% bootstrap interval) to <out>/seeds.md and seeds.json",
     )
-    p.add_argument("--workers", type=int, help="with --seeds: runs at a time (default min(N, cores))")
+    p.add_argument(
+        "--workers", type=int, help="with --seeds: runs at a time (default min(N, the cores this process may run on))"
+    )
     p.add_argument(
         "--resume",
         action="store_true",

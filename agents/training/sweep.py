@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sma_gym._jit import available_cores
 from sma_gym_agents.training.config import ROOT, RunConfig, build_parser, parse_args
 
 if TYPE_CHECKING:  # compare imports the evaluation harness; the sweep needs it only at the end
@@ -416,7 +417,7 @@ def check_sweep_args(args: argparse.Namespace) -> None:
     if args.seeds < 1:
         raise ValueError(f"--seeds {args.seeds}: expected an integer >= 1")
     if args.workers is None:
-        args.workers = max(1, min(args.seeds, os.cpu_count() or 1))
+        args.workers = max(1, min(args.seeds, available_cores()))
     if args.workers < 1:
         raise ValueError(f"--workers {args.workers}: expected an integer >= 1")
 

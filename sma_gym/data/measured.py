@@ -420,6 +420,11 @@ def sidecar_write_path(csv_path: str | Path) -> Path:
     return Path(str(csv_path) + ".json")
 
 
+REAL_BENCH_RUNS = ("step01.csv", "ramp01.csv", "step03.csv", "step07.csv")
+"""The four shared runs of the 0.5 mm HT Flexinol bench (``../shared/data/real``): the
+twin ``bench-0.5mm-ht`` is identified on all four, the fidelity plot shows them."""
+
+
 def find_real_data_dir() -> Path | None:
     """The shared real-data folder (``../shared/data/real`` from the project), if present."""
     here = Path(__file__).resolve()

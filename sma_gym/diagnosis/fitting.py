@@ -23,13 +23,13 @@ from __future__ import annotations
 
 import itertools
 import math
-import os
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
+from sma_gym._jit import available_cores
 from sma_gym.data.measured import MeasuredTrace
 from sma_gym.effects import EFFECTS
 from sma_gym.model import ModelConfig
@@ -53,11 +53,7 @@ def default_threads() -> int:
     """Threads for the batched simulations of a fit: the cores this process may run on, at
     most ``MAX_THREADS``. The core is pure computation without a spinning thread pool, so
     on a shared machine extra threads only time-share; they never thrash."""
-    try:
-        available = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on every platform
-        available = os.cpu_count() or 1
-    return max(1, min(available, MAX_THREADS))
+    return max(1, min(available_cores(), MAX_THREADS))
 
 
 def require_threads(name: str, value: object) -> int:

@@ -66,6 +66,12 @@ def write_report(
             " (not named as found)."
             if result.carried
             else ""
+        )
+        + (
+            " It is the nominal model as given: refitted, its parameters predicted the held-out data worse"
+            " (see the gap table), so no refit is kept."
+            if result.kept_as_given
+            else ""
         ),
         "",
         "## The gap (RMS error, SI units)",

@@ -226,11 +226,16 @@ class Diagnosis:
     carried: str | None = None
     """The candidate the corrected model also carries when the last round was ambiguous (the
     best held out of its rivals; not among ``effects_found``), else None."""
+    kept_as_given: bool = False
+    """True when nothing was found and the nominal refit predicted the held-out data worse
+    than the model as given: the corrected model is then the model as given, unrefitted (a
+    correction that makes held-out data worse is never one)."""
 
     def as_dict(self) -> dict[str, Any]:
         return {
             "effects_found": self.effects_found,
             "carried": self.carried,
+            "kept_as_given": self.kept_as_given,
             "rounds": self.rounds,
             "gap_by_file": self.gap_by_file,
             "verdict": self.verdict,
@@ -425,10 +430,27 @@ def diagnose(
         verdict = "effect" if len(found) == 1 else "effects"
         effect = found[0] if len(found) == 1 else list(found)
         separating = last.separating if last.verdict == "ambiguous" else None
+    kept_as_given = False
     if chosen_fit is None:
         chosen_fit = first.ref.fit
-        current, offset = first.ref.fit.model, first.ref.fit.offset
+        if first.ref.heldout_score > first.as_given:
+            # The refit alone predicts the held-out data worse than the model as given (data
+            # that hardly move the wire leave its parameters free to overfit): no correction.
+            kept_as_given = True
+            start = np.array([q.start for q in chosen_fit.parameters])
+            chosen_fit = replace(
+                chosen_fit, name="model as given", values=start, stderr=np.zeros_like(start), model=nominal, offset=0.0
+            )
+            rounds[-1]["heldout_normalised_rms"] = first.as_given
+            rounds[-1]["gap"] = _gaps(nominal, 0.0, fit_data, held_data, control_period_s)
+            rounds[-1]["parameters_at_bounds"] = []
+        current, offset = chosen_fit.model, chosen_fit.offset
     notes = f"sma-gym diagnose: verdict {verdict}" + (f" ({effect})" if effect else "") + f", {len(rounds)} round(s)"
+    if kept_as_given:
+        notes += (
+            f"; the nominal refit predicted the held-out data worse ({first.ref.heldout_score:.3g}x the noise) than "
+            f"the model as given ({first.as_given:.3g}x), so this is the model as given, unrefitted"
+        )
     if carried is not None:
         rivals = last.effect if isinstance(last.effect, str) else " or ".join(last.effect or [])
         notes += f"; carries {carried}, the best held out of round {len(rounds)}'s ambiguous {rivals}"
@@ -466,6 +488,7 @@ def diagnose(
         rounds=rounds,
         gap_by_file=by_file,
         carried=carried,
+        kept_as_given=kept_as_given,
     )
 
 
