@@ -1050,9 +1050,8 @@ BENCH_PLOT = "bench_0.5mm_ht_vs_measured.png"
 def skipped_plots() -> dict[str, str]:
     """The plots this machine cannot draw, with the reason: the real bench's runs are not
     shipped with the package (``../shared/data/real`` beside a checkout)."""
-    from sma_gym.data import REAL_BENCH_RUNS, find_real_data_dir
+    from sma_gym.data import REAL_BENCH_RUNS, real_bench_folder
 
-    folder = find_real_data_dir()
-    if folder is not None and all((folder / name).is_file() for name in REAL_BENCH_RUNS):
+    if real_bench_folder() is not None:
         return {}
     return {BENCH_PLOT: f"the real bench's runs ({', '.join(REAL_BENCH_RUNS)}) are not in ../shared/data/real"}

@@ -145,11 +145,11 @@ def plot_multiplexed(
 def plot_bench(out: Path) -> Path:
     """The real bench's four shared runs beside the datasheet model and the twin
     ``bench-0.5mm-ht`` (identified on them), each sensor zero read off its rest segment."""
-    from sma_gym.data import REAL_BENCH_RUNS, find_real_data_dir, load_trace
+    from sma_gym.data import REAL_BENCH_RUNS, load_trace, real_bench_folder
     from sma_gym.simulator import Simulator
 
-    folder = find_real_data_dir()
-    if folder is None or not all((folder / name).is_file() for name in REAL_BENCH_RUNS):
+    folder = real_bench_folder()
+    if folder is None:
         # An empty figure would pass for a plot of the runs (fidelity.skipped_plots says why).
         raise FileNotFoundError(f"the real bench's runs {', '.join(REAL_BENCH_RUNS)} (../shared/data/real)")
     fig, axes = new_figure(2, 2, size=(11, 8))

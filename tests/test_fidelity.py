@@ -215,7 +215,7 @@ def test_a_second_run_into_the_same_folder_needs_overwrite_and_replaces_only_its
 def test_the_bench_plot_is_skipped_with_a_reason_without_the_real_runs(monkeypatch):
     import sma_gym.data
 
-    monkeypatch.setattr(sma_gym.data, "find_real_data_dir", lambda: None)
+    monkeypatch.setattr(sma_gym.data, "real_bench_folder", lambda: None)
     assert set(fidelity.skipped_plots()) == {fidelity.BENCH_PLOT}
     assert "step01.csv" in fidelity.skipped_plots()[fidelity.BENCH_PLOT]
     assert fidelity.BENCH_PLOT not in fidelity.plant_plots(None)

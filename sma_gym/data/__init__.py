@@ -7,6 +7,7 @@ from sma_gym.data.measured import (
     find_real_data_dir,
     load_trace,
     load_traces,
+    real_bench_folder,
     write_trace,
 )
 
@@ -17,5 +18,6 @@ __all__ = [
     "find_real_data_dir",
     "load_trace",
     "load_traces",
+    "real_bench_folder",
     "write_trace",
 ]

@@ -425,6 +425,14 @@ REAL_BENCH_RUNS = ("step01.csv", "ramp01.csv", "step03.csv", "step07.csv")
 twin ``bench-0.5mm-ht`` is identified on all four, the fidelity plot shows them."""
 
 
+def real_bench_folder() -> Path | None:
+    """The shared real-data folder if it holds all of :data:`REAL_BENCH_RUNS`, else None."""
+    folder = find_real_data_dir()
+    if folder is None or not all((folder / name).is_file() for name in REAL_BENCH_RUNS):
+        return None
+    return folder
+
+
 def find_real_data_dir() -> Path | None:
     """The shared real-data folder (``../shared/data/real`` from the project), if present."""
     here = Path(__file__).resolve()
