@@ -409,6 +409,45 @@ def test_the_refit_sweeps_the_convection_scale_with_the_temperature_shift(monkey
     assert shift_only["convection_scale"] == pytest.approx(1.0)
 
 
+def test_a_candidate_on_top_of_an_effect_found_is_swept_over_its_own_range(monkeypatch):
+    """From round 2 on, a candidate (or an effect refitted in another form) is fitted on
+    top of the effects found before. The sweep over its own parameter's range used to run
+    only when it was the one effect parameter of the fit, so on top of an effect it started
+    from its off value and half its typical size alone; and a form's fit then swept the
+    shift and convection grid from the effect's best point and started only from that
+    grid's best, which lies off the nominal values the effect was best at. Measured, a
+    Stribeck friction on top of a supply sag: swept to 4.5x the noise on the fitted data,
+    the grid's best at 14.2x, the fit ended at 5.9x. Here the cost is flat outside a narrow
+    basin at a friction of 1.9 N and a shift of 0.3 K, between the grid's shifts."""
+    trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, electrical=False, seed=1))
+    problem = fitting.Problem(ModelConfig(), [fitting.prepare(trace, 1e-3)], 1e-3)
+    params = (
+        problem.nominal_parameters()
+        + fitting.effect_parameters("supply_sag")
+        + fitting.effect_parameters("coulomb_friction", "stribeck")
+    )
+    names = [p.name for p in params]
+
+    def residual_matrix(parameters, points):
+        out = []
+        for point in points:
+            v = dict(zip(names, point))
+            distance = math.hypot((v["coulomb_friction.force_n"] - 1.9) / 0.3, (v["temperature_shift_k"] - 0.3) / 0.2)
+            out.append(np.full(50, 0.01 + min(distance, 1.0)))
+        return np.array(out).T
+
+    monkeypatch.setattr(problem, "residual_matrix", residual_matrix)
+    warm = {"supply_sag.series_resistance_ohm": 1.0, "temperature_shift_k": 0.3}
+    for sweep in ((), workflow.REFIT_SWEEP):
+        fit = problem.fit("friction", params, warm=warm, sweep=sweep, sweep_effect="coulomb_friction")
+        found = dict(zip(names, fit.values))
+        assert found["coulomb_friction.force_n"] == pytest.approx(1.9, abs=0.1)
+        assert found["temperature_shift_k"] == pytest.approx(0.3, abs=0.1)
+        assert found["supply_sag.series_resistance_ohm"] == pytest.approx(1.0)
+    unswept = dict(zip(names, problem.fit("friction", params, warm=warm).values))
+    assert abs(unswept["coulomb_friction.force_n"] - 1.9) > 0.5
+
+
 def test_an_effect_in_another_form_can_be_swept_from_its_off_value():
     """From round 2 on an effect found is refitted in its other forms, from a sweep over
     its range that starts at the off value: on a wire without a nominal spread (the real

@@ -571,7 +571,8 @@ def _round(
     for k, name in enumerate(names, start=2):
         say(f"candidate {k}/{len(names) + 1}: {name}")
         params = base_params + fitting.effect_parameters(name)
-        candidates.append(_candidate(problem.fit(name, params, warm=refit.values_by_name()), held_problem, n_eff))
+        fit = problem.fit(name, params, warm=refit.values_by_name(), sweep_effect=name)
+        candidates.append(_candidate(fit, held_problem, n_eff))
     for c in candidates[1:]:
         c.inert = _inert(c.fit, problem)
     ref = _best_reference(candidates, problem, held_problem, base_params, n_eff, say)
@@ -585,7 +586,7 @@ def _round(
             c = candidates[k]
             say(f"candidate {c.name} again from the better optimum")
             params = base_params + fitting.effect_parameters(c.name)
-            again = problem.fit(c.name, params, warm=ref.fit.values_by_name())
+            again = problem.fit(c.name, params, warm=ref.fit.values_by_name(), sweep_effect=c.name)
             if again.cost < c.fit.cost:
                 candidates[k] = _candidate(again, held_problem, n_eff)
                 candidates[k].inert = _inert(again, problem)
@@ -955,7 +956,9 @@ def _form_references(
             # The effect's own parameters start from the form's own starts: a value means
             # something else in another form.
             warm = {k: v for k, v in ref.fit.values_by_name().items() if not k.startswith(f"{name}.")}
-            fit = problem.fit(f"{name} ({form})", params, warm=warm, max_nfev=FORM_MAX_NFEV, sweep=REFIT_SWEEP)
+            fit = problem.fit(
+                f"{name} ({form})", params, warm=warm, max_nfev=FORM_MAX_NFEV, sweep=REFIT_SWEEP, sweep_effect=name
+            )
             c = _candidate(fit, held_problem, n_eff)
             say(
                 f"reference: {name} in its '{form}' form: held out {c.heldout_score:.3g}x the noise "
