@@ -461,7 +461,7 @@ class Problem:
             # the effect's best size but not the nominal values it was found at, so its best
             # can be worse than where it began (measured: a friction swept to 4.5x the noise
             # on the fitted data, then the shift and convection grid's best at 14.2x, and the
-            # fit from there ended at 5.9x).
+            # best fit from its starts ended at 5.9x).
             starts = [starts[0], *grids]
         tried: list[np.ndarray] = []
         for start in starts:
