@@ -670,11 +670,21 @@ def classify_pair(truth: Sequence[str], verdict: str, named: Sequence[str]) -> s
 
 
 def run_pairs(
-    n: int, seed: int = 0, max_rounds: int = DEFAULT_MAX_ROUNDS, budget_s: float = math.inf
+    n: int,
+    seed: int = 0,
+    max_rounds: int = DEFAULT_MAX_ROUNDS,
+    budget_s: float = math.inf,
+    only: Sequence[int] | None = None,
 ) -> dict[str, Any]:
     """Run ``n`` two-effect cases and summarise: both named, confident wrong names, the
-    held-out gap at the last round against the noise."""
+    held-out gap at the last round against the noise. ``only``: run just these case indices
+    of the ``n`` drawn (the cases a change can affect), summarised alone."""
     cases = draw_pairs(n, seed)
+    if only is not None:
+        bad = sorted(set(only) - set(range(n)))
+        if bad:
+            raise ValueError(f"--cases {bad}: expected case indices from 0 to {n - 1}")
+        cases = [c for c in cases if c.index in set(only)]
     nominal = ModelConfig()
     started = time.perf_counter()
     records: list[dict[str, Any]] = []
@@ -736,6 +746,7 @@ def run_pairs(
     return {
         "settings": {
             "pairs": n,
+            "only": None if only is None else sorted(set(only)),
             "seed": seed,
             "max_rounds": max_rounds,
             "fit_duration_s": FIT_DURATION_S,
@@ -967,6 +978,9 @@ def main() -> int:
     parser.add_argument(
         "--pairs", type=int, default=0, metavar="N", help="run N cases with two effects hidden at once instead"
     )
+    parser.add_argument(
+        "--cases", default=None, metavar="I,J,...", help="pairs: run only these case indices of the N drawn"
+    )
     parser.add_argument("--out", type=Path, help="grid / pairs: write the report as markdown to this file")
     parser.add_argument(
         "--merge", type=Path, nargs="+", metavar="JSON", help="report on saved --grid --json runs together, run nothing"
@@ -997,7 +1011,15 @@ def main() -> int:
             )
         return 0
     if args.pairs:
-        result = run_pairs(args.pairs, args.seed, args.max_rounds, args.budget_min * 60.0)
+        only = None
+        if args.cases is not None:
+            try:
+                only = [int(c) for c in args.cases.split(",")]
+            except ValueError:
+                parser.error(f"--cases {args.cases!r}: expected comma-separated case indices, e.g. 2,5,8")
+            if any(not 0 <= c < args.pairs for c in only):
+                parser.error(f"--cases {args.cases!r}: expected case indices from 0 to {args.pairs - 1}")
+        result = run_pairs(args.pairs, args.seed, args.max_rounds, args.budget_min * 60.0, only)
         markdown = pairs_markdown(result)
         if args.out is not None:
             args.out.parent.mkdir(parents=True, exist_ok=True)

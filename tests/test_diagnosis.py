@@ -17,7 +17,6 @@ from sma_gym.cli import main
 from sma_gym.data import find_real_data_dir, load_trace
 from sma_gym.diagnosis import diagnose
 from sma_gym.diagnosis.synth import SynthSpec, generate, write
-from sma_gym.diagnosis.workflow import NOISE_STOP
 from sma_gym.effects import EFFECTS
 from sma_gym.model import ModelConfig, load_model
 
@@ -95,24 +94,30 @@ def two_effects(truth: ModelConfig, effect: str, form: str, seed: int):
     return trace
 
 
-def test_two_hidden_effects_are_named_one_per_round_and_nothing_more():
+def test_two_hidden_effects_are_both_named_and_nothing_more():
     """Sensor lag (second-order form) and Stribeck friction hidden together, nominal
-    perturbed by 5 %: round 1 names one, round 2 the other with the first refitted, round 3
-    finds nothing supported. The corrected model carries both; the rounds and the
-    staircase are in the result."""
+    perturbed by 5 %. Round 1 alone is ambiguous: an Abbe offset mimics the friction held
+    out best, and the lag, by far the best on the fitted data, predicts worse alone. The
+    round pairs the lag with each rival, names the lag with the friction jointly, and round
+    2 moves the lag to its second-order form and finds nothing else supported. (Until
+    2026-11-28 only the held-out best was paired beyond the first three rivals, and this
+    case, on the kernel whose Stribeck slips are resolved, ended ambiguous in round 1.)"""
     truth = ModelConfig().with_effect("sensor_lag", {"time_constant_s": 0.05}, "second-order")
     trace = two_effects(truth, "coulomb_friction", "stribeck", seed=7)
     result = diagnose([trace("steps", FIT_SECONDS)], [trace("sine", HELD_SECONDS)], ModelConfig())
     assert result.verdict == "effects"
     assert sorted(result.effects_found) == ["coulomb_friction", "sensor_lag"]
+    first = result.rounds[0]
+    assert first["verdict"] == "effects" and sorted(first["effect"]) == ["coulomb_friction", "sensor_lag"]
+    # The joint pair, not one of its members, beat the round's single candidates.
+    singles = {c["name"]: c for c in first["candidates"]}
+    assert singles["abbe_offset"]["supported"] and not singles["sensor_lag"]["supported"]
+    assert all(r["verdict"] not in ("effect", "effects") for r in result.rounds[1:])
+    active = {s.name: s for s in result.corrected_model.effects.active()}
+    assert set(active) == {"coulomb_friction", "sensor_lag"}
+    assert active["sensor_lag"].form == "second-order"
     held = [r["heldout_normalised_rms"] for r in result.rounds]
-    verdicts = [r["verdict"] for r in result.rounds]
-    # After the second effect the loop either stops because the held-out residual is within
-    # NOISE_STOP of the noise (which one happens depends on the last bits of the CPU's
-    # floating point), or runs a third round that finds nothing supported.
-    assert verdicts == ["effect", "effect", "none"] or (verdicts == ["effect", "effect"] and held[1] <= NOISE_STOP)
-    assert {s.name for s in result.corrected_model.effects.active()} == {"coulomb_friction", "sensor_lag"}
-    assert held[1] < 0.5 * held[0]  # the second round closes most of what the first left
+    assert held[0] < 0.25 * first["nominal_refit_heldout_normalised_rms"]
     assert result.gap_after["heldout"]["position"] < 0.2 * result.gap_before["heldout"]["position"]
 
 

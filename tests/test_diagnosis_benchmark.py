@@ -119,6 +119,10 @@ def test_pairs_cover_every_pair_once_before_repeating_and_hold_out_another_excit
     assert max(counts.values()) - min(counts.values()) <= 1
     with pytest.raises(ValueError, match="pairs = 0"):
         bench.draw_pairs(0)
+    # --cases reruns some of the draw (those a change can affect): an index outside it is
+    # refused before any case runs.
+    with pytest.raises(ValueError, match=r"--cases \[20\]: expected case indices from 0 to 19"):
+        bench.run_pairs(20, only=[3, 20])
 
 
 def test_pair_scoring_counts_both_only_when_nothing_else_is_named(bench: ModuleType) -> None:

@@ -31,7 +31,9 @@ release point up to the cut) both bounds tighten to ``DT_BAND`` and ``DX_BAND`` 
 while the wire conducts, 1 um, widened up to 4x for a wire that heats more slowly than the
 report's at 20 V: ``simulator.band_widening``): there the cut's relay cycle times its
 switching on fractions of a micrometre of position. The cut
-and its release switch where the position crosses them inside a sub-step. PWM-resolved
+and its release switch where the position crosses them inside a sub-step. With the Stribeck
+form of friction, a breakaway and a re-stick are located inside the sub-step too, and a
+sliding sleigh takes sub-steps of at most ``SLIP_OMEGA_H`` of the wire-mass mode. PWM-resolved
 mode additionally cuts sub-steps at every switching edge. The test suite checks that
 refining every bound converges at first order and that the default is within a stated
 error of a fine reference.
@@ -154,7 +156,13 @@ from sma_gym.electrical.sensors import (
     first_order,
     quantise,
 )
-from sma_gym.physics.mechanics import WireConstants, kinetic_friction, solve_step, static_friction
+from sma_gym.physics.mechanics import (
+    FRICTION_STRIBECK,
+    WireConstants,
+    kinetic_friction,
+    solve_step,
+    static_friction,
+)
 from sma_gym.physics.resistance import wire_resistance
 from sma_gym.physics.thermal import (
     SURROUNDINGS_ELECTRICAL,
@@ -179,6 +187,25 @@ CUT_WATCH_M = 2e-3
 
 CUT_BAND_MARGIN_M = 0.1e-3
 """The switching band runs from this far below the cut's release point up to the cut."""
+
+
+SUBSTEP_LOCATE, SUBSTEP_ENDS_STUCK, SUBSTEP_ENDS_AT_REST, SUBSTEP_PLAIN = 0, 1, 2, 3
+"""Modes of ``_substep``: locate friction events, the step retaken up to a breakaway (ends
+stuck) or a re-stick (ends at rest), a step shortened for another reason."""
+
+SLIP_OMEGA_H = 0.05
+"""A sleigh sliding with Stribeck friction takes sub-steps of at most this many radians of
+the wire-mass mode (omega h, 32 us on the report's wire): a slip lasts about half its period,
+and its size depends on the speed reached. Measured (``benchmarks/bench_friction.py``): 0.05
+is within 1.9 um of 1 us sub-steps (before the wire reaches the cut) at 1.9-6.8x the Coulomb
+form's time, 0.02 within 1.3 um at 3-14x, 0.1 up to 13 um off."""
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def slip_substep(params, i):
+    """Longest sub-step [s] while actuator i's sleigh slides with Stribeck friction."""
+    stiffness = params[i, P_D_A] * params[i, P_AREA] / params[i, P_LENGTH] + params[i, P_K_SPRING]
+    return SLIP_OMEGA_H * math.sqrt(params[i, P_MASS] / stiffness)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -232,8 +259,93 @@ def _convection(state, params, i, t_c):
     )
 
 
+@njit(cache=True, error_model="numpy")
+def _stribeck_slide(state, params, i, h, theta, x0, v0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes, mode):
+    """The mechanics of one sub-step with Stribeck friction (see ``_substep``): returns
+    (xi, x1, sigma1, t1, friction force, event fraction or 1.0, mode of the retake). Its own
+    compiled function, so the common path (no friction, or the Coulomb form) stays lean."""
+    f_c = params[i, P_F_COULOMB]
+    form = FRICTION_STRIBECK
+    area = params[i, P_AREA]
+    k_spring = params[i, P_K_SPRING]
+    f_pre = params[i, P_F_PRE]
+    moving = v0 != 0.0
+    stick = not moving
+    friction = 0.0
+    direction = 0.0
+    if moving:
+        direction = 1.0 if v0 > 0.0 else -1.0
+        friction = direction * kinetic_friction(f_c, v0, form)
+    event = 1.0
+    next_mode = SUBSTEP_PLAIN
+    z = z0
+    x1 = x0
+    s1 = 0.0
+    t1 = t_pred
+    corrected = False
+    for attempt in range(4):
+        z, x1, s1, t1 = solve_step(stick, x0, t_pred, z0, k_ext, b_ext - friction, wire, hyst, n_nodes)
+        if stick and attempt > 0:
+            break
+        if moving or attempt > 0:
+            # Sliding (Stribeck): the friction at the step's mean speed (predicted, then
+            # corrected: the drop from static to kinetic takes ~60 us after a breakaway,
+            # about one slip sub-step), and a velocity that would cross zero is located.
+            v_end = direction * (x1 - x0 - h * (1.0 - theta) * v0) / (theta * h)
+            if not corrected and v_end > 0.0:
+                friction = direction * 0.5 * (kinetic_friction(f_c, v0, form) + kinetic_friction(f_c, v_end, form))
+                corrected = True
+                continue
+            if v_end >= 0.0:
+                break
+            fraction = abs(v0) / (abs(v0) - v_end)
+            if mode == SUBSTEP_LOCATE and fraction * h > MIN_SUBSTEP_S:
+                event = fraction
+                next_mode = SUBSTEP_ENDS_AT_REST
+                break
+            if mode == SUBSTEP_ENDS_AT_REST:
+                break  # the caller sets the velocity to zero
+            friction = 0.0
+            stick = True
+        else:
+            # At rest: held if static friction suffices.
+            needed = area * s1 - k_spring * x0 - f_pre
+            if abs(needed) <= static_friction(f_c, form):
+                break
+            direction = 1.0 if needed > 0.0 else -1.0
+            friction = direction * kinetic_friction(f_c, v0, form)
+            stick = False
+            if mode != SUBSTEP_PLAIN:
+                if mode == SUBSTEP_ENDS_STUCK:
+                    friction = 0.0
+                    stick = True
+                    break
+                # Breakaway (Stribeck, from rest): where the holding force reaches static
+                # friction (linear in time within the step), and a slide that starts in a
+                # step longer than the slip bound is taken again shorter.
+                needed0 = direction * (area * state[i, S_SIGMA] - k_spring * x0 - f_pre)
+                limit = static_friction(f_c, form)
+                fraction = (limit - needed0) / (direction * needed - needed0) if needed0 < limit else 0.0
+                if fraction * h > MIN_SUBSTEP_S:
+                    event = fraction
+                    next_mode = SUBSTEP_ENDS_STUCK
+                    break
+                h_slip = slip_substep(params, i)
+                if h > h_slip:
+                    event = h_slip / h
+                    break
+    return z, x1, s1, t1, friction, event, next_mode
+
+
 @njit(cache=True, inline="always", error_model="numpy")
-def _substep(state, params, i, h, energy_j, hyst, n_nodes):
+def _substep(state, params, i, h, energy_j, hyst, n_nodes, mode):
+    """One sub-step of length h; returns (1.0, mode), or (fraction, mode of the retake).
+
+    ``mode`` (``SUBSTEP_*``) only matters for the Stribeck form of friction: ``LOCATE``
+    returns the fraction at which the sleigh breaks away or comes to rest inside the step
+    (the caller restores the state and takes the step again up to it); ``ENDS_STUCK`` and
+    ``ENDS_AT_REST`` are those retaken steps, ``PLAIN`` a step shortened for another reason.
+    """
     x0 = state[i, S_X]
     v0 = state[i, S_V]
     t0 = state[i, S_T]
@@ -267,14 +379,20 @@ def _substep(state, params, i, h, energy_j, hyst, n_nodes):
     # 10 us references parted by 0.33 mm / 7.7 K at 20 V. theta -> 1/2 (trapezoidal, no
     # numerical damping) where the step resolves the mode (omega h << 1), 1 where it cannot
     # (omega h >= 1: holding and cooling steps, which must not ring). Friction sticks by
-    # backward Euler (theta = 1): a stuck trapezoidal step would reverse the velocity.
+    # backward Euler (theta = 1): a stuck trapezoidal step would reverse the velocity. A
+    # sleigh sliding with the Stribeck form steps by the theta-method as without friction:
+    # its re-stick is located (below), and backward Euler's damping of the slip (0.86 of
+    # its amplitude over half a period at omega h = 0.1) set each jump's size.
     mass = params[i, P_MASS]
     damping = params[i, P_DAMPING]
     k_spring = params[i, P_K_SPRING]
     f_pre = params[i, P_F_PRE]
     f_c = params[i, P_F_COULOMB]
+    form = int(params[i, P_FRICTION_FORM])
+    stribeck = f_c > 0.0 and form == FRICTION_STRIBECK
+    moving = stribeck and v0 != 0.0
     theta = 1.0
-    if f_c <= 0.0:
+    if f_c <= 0.0 or moving:
         omega_h_sq = (params[i, P_D_A] * area / length + k_spring) * h * h / mass
         theta = 0.5 + 0.5 * min(omega_h_sq, 1.0)
     f0 = area * state[i, S_SIGMA] - damping * v0 - k_spring * x0 - f_pre
@@ -313,32 +431,47 @@ def _substep(state, params, i, h, energy_j, hyst, n_nodes):
     # holding needs more than static friction, slide with the kinetic force against the
     # motion; if that would reverse the motion within the step, the mass sticks after all.
     # Without friction a single free step. (One solve_step call site, inlined once.)
-    form = int(params[i, P_FRICTION_FORM])
-    stick = f_c > 0.0
+    # The Stribeck form (static friction above the kinetic) differs in two ways: a sleigh
+    # that moves slides until its velocity crosses zero (never stopped by a stuck trial
+    # step, whose stopping force mass v0 / h depends on h), and the breakaway and the
+    # re-stick are located inside the step (returned as a fraction): the drop from static to
+    # kinetic friction makes each slip a jump whose size depends on where it starts, and at
+    # sub-step boundaries the trajectory followed the sub-step grid (1 ppm of mass moved it
+    # by 16.8 um).
+    event = 1.0
+    next_mode = SUBSTEP_PLAIN
     friction = 0.0
-    direction = 0.0
-    z = z0
-    x1 = x0
-    s1 = 0.0
-    t1 = t_pred
-    for attempt in range(3):
-        z, x1, s1, t1 = solve_step(stick, x0, t_pred, z0, k_ext, b_ext - friction, wire, hyst, n_nodes)
-        if f_c <= 0.0:
-            break
-        if attempt == 0:
-            needed = area * s1 - k_spring * x0 - f_pre + mass * v0 / h
-            if abs(needed) <= static_friction(f_c, form):
+    if stribeck:
+        z, x1, s1, t1, friction, event, next_mode = _stribeck_slide(
+            state, params, i, h, theta, x0, v0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes, mode
+        )
+    else:
+        stick = f_c > 0.0
+        direction = 0.0
+        z = z0
+        x1 = x0
+        s1 = 0.0
+        t1 = t_pred
+        for attempt in range(3):
+            z, x1, s1, t1 = solve_step(stick, x0, t_pred, z0, k_ext, b_ext - friction, wire, hyst, n_nodes)
+            if f_c <= 0.0:
                 break
-            direction = 1.0 if needed > 0.0 else -1.0
-            friction = direction * kinetic_friction(f_c, v0, form)
-            stick = False
-        elif attempt == 1:
-            if (x1 - x0) * direction >= 0.0:
+            if attempt == 0:
+                needed = area * s1 - k_spring * x0 - f_pre + mass * v0 / h
+                if abs(needed) <= static_friction(f_c, form):
+                    break
+                direction = 1.0 if needed > 0.0 else -1.0
+                friction = direction * kinetic_friction(f_c, v0, form)
+                stick = False
+            elif attempt == 1:
+                if (x1 - x0) * direction >= 0.0:
+                    break
+                friction = 0.0
+                stick = True
+            else:
                 break
-            friction = 0.0
-            stick = True
-        else:
-            break
+    if event < 1.0:
+        return event, next_mode  # the caller restores the state and takes the step again
 
     dx = x1 - x0
     v1 = (dx - h * (1.0 - theta) * v0) / (theta * h)
@@ -387,6 +520,77 @@ def _substep(state, params, i, h, energy_j, hyst, n_nodes):
         state[i, S_EOT_CUT] = 1.0
     elif state[i, S_EOT_CUT] > 0.5 and x1 < params[i, P_EOT] - params[i, P_EOT_RELEASE]:
         state[i, S_EOT_CUT] = 0.0
+    return 1.0, next_mode
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _located_substep(state, params, i, seg, power, switched_on, tau, t_on, drive, stribeck, saved, hyst, n_nodes):
+    """Take one sub-step of at most ``seg`` seconds, ending it early at a located event.
+
+    ``drive``: power would flow if the cut released (it is watched for then). Returns the
+    length taken.
+    """
+    resolved = params[i, P_RESOLVED] != 0.0
+    # The end-of-travel cut switches the power off where the position crosses x_eot (and
+    # back on where it falls below the release point), not at the end of the sub-step
+    # that crosses it: if a sub-step ends past the switching point, it is taken again up
+    # to the crossing (interpolated in position: the mechanics are stiff, so x is nearly
+    # linear in time within a sub-step) and the rest of the step runs switched.
+    eot = params[i, P_EOT]
+    x_now = state[i, S_X]
+    if state[i, S_EOT_CUT] < 0.5:
+        threshold = eot
+        watch = power > 0.0 and x_now > eot - CUT_WATCH_M
+    else:
+        # Release: where power would flow (averaged: any duty; resolved: inside a pulse).
+        threshold = eot - params[i, P_EOT_RELEASE]
+        watch = drive and x_now < threshold + CUT_WATCH_M
+    if watch or stribeck:
+        for r in range(saved.shape[0]):
+            saved[r] = state[i, r]
+    # A step is taken again, shorter, up to a friction event it locates (Stribeck form)
+    # and then up to the cut's crossing: at most three tries.
+    mode = SUBSTEP_LOCATE if stribeck else SUBSTEP_PLAIN
+    cut_located = False
+    for _ in range(3):
+        energy = power * seg
+        if resolved:
+            if switched_on:
+                # The rise of the current is timed from the switch-on edge.
+                energy = power * pulse_integral(t_on, t_on + seg, params[i, P_TAU_RISE], int(params[i, P_RISE_FORM]))
+            state[i, S_PWM_TAU] = tau + seg
+        event, next_mode = _substep(state, params, i, seg, energy, hyst, n_nodes, mode)
+        if event < 1.0:
+            for r in range(saved.shape[0]):
+                state[i, r] = saved[r]
+            seg = event * seg
+            mode = next_mode
+            continue
+        if mode == SUBSTEP_ENDS_AT_REST:
+            state[i, S_V] = 0.0  # the located re-stick
+        if not watch or cut_located:
+            break
+        x_start = saved[S_X]
+        x_end = state[i, S_X]
+        if saved[S_EOT_CUT] < 0.5:
+            crossed = x_end >= threshold
+            switched = 1.0
+        else:
+            crossed = x_end < threshold
+            switched = 0.0
+        if not crossed:
+            break
+        fraction = (threshold - x_start) / (x_end - x_start) if x_end != x_start else 0.0
+        fraction = min(max(fraction, 0.0), 1.0)
+        for r in range(saved.shape[0]):
+            state[i, r] = saved[r]
+        state[i, S_EOT_CUT] = switched
+        seg = fraction * seg
+        mode = SUBSTEP_PLAIN
+        cut_located = True
+        if seg < MIN_SUBSTEP_S:
+            break
+    return seg
 
 
 @njit(cache=True, error_model="numpy")
@@ -426,6 +630,7 @@ def _control_step(state, params, i, duty_cmd, dt, noise4, hyst, n_nodes, saved):
     h_max = params[i, P_H_MAX]
 
     resolved = params[i, P_RESOLVED] != 0.0
+    stribeck = params[i, P_F_COULOMB] > 0.0 and int(params[i, P_FRICTION_FORM]) == FRICTION_STRIBECK
     dt_max_k = params[i, P_DT_MAX]
     heat_cap = params[i, P_HEAT_CAP]
     # PWM-averaged: each sub-step gets the mean energy of the pulses it spans.
@@ -509,6 +714,9 @@ def _control_step(state, params, i, duty_cmd, dt, noise4, hyst, n_nodes, saved):
         dx_lim = min(params[i, P_DX_MAX], params[i, P_DX_BAND]) if in_band else params[i, P_DX_MAX]
         if speed * seg > dx_lim and state[i, S_X] > params[i, P_EOT] - CUT_WATCH_M:
             seg = dx_lim / speed
+        # ... and a sleigh sliding with Stribeck friction resolves its slip (see _substep).
+        if stribeck and state[i, S_V] != 0.0:
+            seg = min(seg, slip_substep(params, i))
         # Bounded work whatever the parameters: never more than MAX_SUBSTEPS per control step
         # (a physically meaningless model then integrates inaccurately, but it returns).
         if seg < dt / MAX_SUBSTEPS:
@@ -517,53 +725,23 @@ def _control_step(state, params, i, duty_cmd, dt, noise4, hyst, n_nodes, saved):
             # Split what is left evenly rather than leaving a sliver at the end.
             pieces = math.ceil(remaining / seg - 1e-9)
             seg = remaining / pieces
-        # The end-of-travel cut switches the power off where the position crosses x_eot (and
-        # back on where it falls below the release point), not at the end of the sub-step
-        # that crosses it: if a sub-step ends past the switching point, it is taken again up
-        # to the crossing (interpolated in position: the mechanics are stiff, so x is nearly
-        # linear in time within a sub-step) and the rest of the step runs switched.
-        eot = params[i, P_EOT]
-        x_now = state[i, S_X]
-        if state[i, S_EOT_CUT] < 0.5:
-            threshold = eot
-            watch = power > 0.0 and x_now > eot - CUT_WATCH_M
-        else:
-            # Release: where power would flow (averaged: any duty; resolved: inside a pulse).
-            threshold = eot - params[i, P_EOT_RELEASE]
-            drive = cut_in_pulse if resolved else mean_fraction > 0.0
-            watch = drive and x_now < threshold + CUT_WATCH_M
-        if watch:
-            for r in range(saved.shape[0]):
-                saved[r] = state[i, r]
-        for attempt in range(2):
-            energy = power * seg
-            if resolved:
-                if switched_on:
-                    # The rise of the current is timed from the switch-on edge.
-                    t_on = max(tau - pulse_start, 0.0)
-                    energy = power * pulse_integral(t_on, t_on + seg, tau_rise, rise_form)
-                state[i, S_PWM_TAU] = tau + seg
-            _substep(state, params, i, seg, energy, hyst, n_nodes)
-            if not watch or attempt == 1:
-                break
-            x_start = saved[S_X]
-            x_end = state[i, S_X]
-            if saved[S_EOT_CUT] < 0.5:
-                crossed = x_end >= threshold
-                switched = 1.0
-            else:
-                crossed = x_end < threshold
-                switched = 0.0
-            if not crossed:
-                break
-            fraction = (threshold - x_start) / (x_end - x_start) if x_end != x_start else 0.0
-            fraction = min(max(fraction, 0.0), 1.0)
-            for r in range(saved.shape[0]):
-                state[i, r] = saved[r]
-            state[i, S_EOT_CUT] = switched
-            seg = fraction * seg
-            if seg < MIN_SUBSTEP_S:
-                break
+        t_on = max(tau - pulse_start, 0.0) if resolved and switched_on else 0.0
+        drive = cut_in_pulse if resolved else mean_fraction > 0.0
+        seg = _located_substep(
+            state,
+            params,
+            i,
+            seg,
+            power,
+            switched_on,
+            tau if resolved else 0.0,
+            t_on,
+            drive,
+            stribeck,
+            saved,
+            hyst,
+            n_nodes,
+        )
         remaining -= seg
     if resolved:
         if remaining > 0.0:

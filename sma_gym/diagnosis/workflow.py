@@ -47,9 +47,10 @@
    *Two effects, not one of two.* Two effects hidden at once each explain part of the
    residual, so a round sees rivals where there are two effects, or sees effects that
    each fit better and each predict worse than the refit. An ambiguous round therefore
-   fits the pairs of its first ``JOINT_RIVALS`` (3) names jointly, and its best with every
+   fits the pairs of its first ``JOINT_RIVALS`` (3) names jointly, its best with every
    other candidate with evidence of either kind (past the BIC bar, or past the gain bar
-   held out), and an unexplained round the pairs of its candidates with evidence (at most
+   held out), and the candidate best on the fitted data with each of those names; and an
+   unexplained round the pairs of its candidates with evidence (at most
    ``MAX_JOINT_PAIRS`` pairs either way); a pair is named (verdict
    ``effects``, both added) when it beats each of its members alone, and the round's
    references, as a single effect must beat the reference: by the BIC bar on the fitted
@@ -699,7 +700,13 @@ def _pairs_to_try(r: _Round, heldout_gain: float, electrical: bool) -> list[tupl
       out), the offset was best, a convection change its rival, and the lag, ΔBIC -60 but
       2 % better held out alone, no rival; the offset with the lag, fitted jointly, held out
       3.9x the noise against 7.6x for the offset alone, and round 2 moved the offset to its
-      other form (1.25x).
+      other form (1.25x). Then the candidate best on the fitted data (by BIC) with each of
+      the first names: alone it can predict worse than a rival that mimics the other effect
+      held out. Measured (a second-order sensor lag and a Stribeck friction hidden, steps
+      fitted, sine held out; ``tests/test_diagnosis.py``): an Abbe offset was best held out
+      (11.4x the noise), the friction its rival (14.1x), and the lag, ΔBIC -2069 but 17.7x
+      alone, no rival and not among the pairs: ambiguous. The lag with the friction held out
+      4.4x and was named.
     * ``unexplained``: the candidates with evidence of either kind, past the BIC bar on the
       fitted data or past the gain bar held out, none of them supported alone: two effects
       hidden at once can each fit the fitted data better and each predict the held-out data
@@ -726,6 +733,11 @@ def _pairs_to_try(r: _Round, heldout_gain: float, electrical: bool) -> list[tupl
         # second effect need not be a rival of the first.
         partners = [c.name for c in evidence if c.name != best] if usable(best) else []
         ordered = [*itertools.combinations(names, 2), *((best, n) for n in partners)]
+        # And the best on the fitted data with every rival: alone it may predict worse than
+        # a rival that mimics the other effect held out, so that it pairs with neither.
+        if evidence:
+            top = min(evidence, key=lambda c: c.bic).name
+            ordered += [(top, n) for n in names if n != top]
     elif r.verdict == "unexplained" and len(evidence) >= 2:
         by_bic = sorted(evidence, key=lambda c: c.bic)
         best_held = min(evidence, key=lambda c: c.heldout_score)
