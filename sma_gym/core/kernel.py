@@ -202,10 +202,21 @@ form's time, 0.02 within 1.3 um at 3-14x, 0.1 up to 13 um off."""
 
 
 @njit(cache=True, inline="always", error_model="numpy")
+def _mode_stiffness(params, i):
+    """Stiffness [N/m] of actuator i's wire-mass mode: the austenitic wire and the spring."""
+    return params[i, P_D_A] * params[i, P_AREA] / params[i, P_LENGTH] + params[i, P_K_SPRING]
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _has_stribeck(params, i):
+    """Whether actuator i has friction in the Stribeck form."""
+    return params[i, P_F_COULOMB] > 0.0 and int(params[i, P_FRICTION_FORM]) == FRICTION_STRIBECK
+
+
+@njit(cache=True, inline="always", error_model="numpy")
 def slip_substep(params, i):
     """Longest sub-step [s] while actuator i's sleigh slides with Stribeck friction."""
-    stiffness = params[i, P_D_A] * params[i, P_AREA] / params[i, P_LENGTH] + params[i, P_K_SPRING]
-    return SLIP_OMEGA_H * math.sqrt(params[i, P_MASS] / stiffness)
+    return SLIP_OMEGA_H * math.sqrt(params[i, P_MASS] / _mode_stiffness(params, i))
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -389,11 +400,11 @@ def _substep(state, params, i, h, energy_j, hyst, n_nodes, mode):
     f_pre = params[i, P_F_PRE]
     f_c = params[i, P_F_COULOMB]
     form = int(params[i, P_FRICTION_FORM])
-    stribeck = f_c > 0.0 and form == FRICTION_STRIBECK
+    stribeck = _has_stribeck(params, i)
     moving = stribeck and v0 != 0.0
     theta = 1.0
     if f_c <= 0.0 or moving:
-        omega_h_sq = (params[i, P_D_A] * area / length + k_spring) * h * h / mass
+        omega_h_sq = _mode_stiffness(params, i) * h * h / mass
         theta = 0.5 + 0.5 * min(omega_h_sq, 1.0)
     f0 = area * state[i, S_SIGMA] - damping * v0 - k_spring * x0 - f_pre
     th2 = theta * theta * h * h
@@ -630,7 +641,7 @@ def _control_step(state, params, i, duty_cmd, dt, noise4, hyst, n_nodes, saved):
     h_max = params[i, P_H_MAX]
 
     resolved = params[i, P_RESOLVED] != 0.0
-    stribeck = params[i, P_F_COULOMB] > 0.0 and int(params[i, P_FRICTION_FORM]) == FRICTION_STRIBECK
+    stribeck = _has_stribeck(params, i)
     dt_max_k = params[i, P_DT_MAX]
     heat_cap = params[i, P_HEAT_CAP]
     # PWM-averaged: each sub-step gets the mean energy of the pulses it spans.
