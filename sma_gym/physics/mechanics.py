@@ -29,6 +29,9 @@ needed, the cosine law stays exact, and the implicit step is unconditionally sta
 stiff wire (D_A A / l0 ~ 2e4 N/m against an 8.8 g mass: a 250 Hz mode). The step length is
 therefore limited only by accuracy (see ``core.kernel``), not by stability.
 
+A wire cannot push: where (*) gives sigma < 0 the wire is slack (sigma = 0, the sleigh
+moves under its own forces; docs/model.md §2).
+
 Coulomb friction (``coulomb_friction`` effect) is set-valued at rest: we first try a step
 with the mass stuck; if the force needed to hold it exceeds the static friction, we take a
 sliding step with the kinetic force opposing the motion.
@@ -131,6 +134,17 @@ def _evaluate(z, stick, x0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes):
     strain = sf - x1 / length
     sigma1 = sigma0 + d * strain
     dsigma = dd * strain + d * (dsf - dx1 / length)
+    if sigma1 < 0.0:
+        # A wire cannot push (a 0.5 mm wire of 0.96 m buckles under about 1 mN): where the
+        # law gives compression the wire is slack, carries nothing, and the sleigh moves
+        # under its own forces (k_ext x1 = b_ext). The residual z - Z(z) stays increasing
+        # and continuous across the switch. Compression came with a friction above the
+        # spring's force: a sleigh held while the wire expanded, or pushed back when the
+        # wire cooled (a 3 N friction on the real bench: -14 MPa, the wire pushing 2.8 N).
+        sigma1 = 0.0
+        dsigma = 0.0
+        if not stick:
+            x1 = b_ext / k_ext
 
     inv_h = 1.0 / (a_f - a_s)
     inv_c = 1.0 / (m_s - m_f)
