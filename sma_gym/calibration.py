@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from sma_gym import fidelity
-from sma_gym.extras import require
+from sma_gym.extras import MissingExtraError, require
 from sma_gym.model import ModelConfig
 from sma_gym.params import FORCED_CONVECTION_FACTOR, preset, standard
 
@@ -269,13 +269,20 @@ def main(argv: list[str] | None = None) -> None:
         "preset's fitted parameters; twin: the bench-0.5mm-ht twin from the four shared real runs",
     )
     target = parser.parse_args(argv).target
-    if target == "bench":
-        calibrate_bench()
-    elif target == "twin":
-        identify_twin()
-    else:
-        p = standard()
-        calibrate(p.convection.h0_w_m2_k, p.wire.resistivity_austenite_ohm_m)
+    try:
+        if target in ("bench", "twin"):
+            # Before any work: the fits need scipy (the diagnose extra), and a lean install
+            # must say so rather than fail minutes into a diagnosis.
+            require("scipy", purpose=f"python -m sma_gym.calibration {target}", extra="diagnose")
+        if target == "bench":
+            calibrate_bench()
+        elif target == "twin":
+            identify_twin()
+        else:
+            p = standard()
+            calibrate(p.convection.h0_w_m2_k, p.wire.resistivity_austenite_ohm_m)
+    except MissingExtraError as err:
+        parser.exit(2, f"{parser.prog}: error: {err}\n")
 
 
 if __name__ == "__main__":

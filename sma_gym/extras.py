@@ -74,6 +74,10 @@ def _installed_from() -> tuple[str, bool]:
     return "sma-gym", False
 
 
+TORCH_PIN = "torch==2.13.0"
+"""The torch the README's commands install (tests/test_repository.py checks they agree)."""
+
+
 def install_hint(modules: list[str], extra: str | None = None) -> str:
     """The ``pip install`` command that adds the extra(s) installing ``modules``: for the
     checkout it was installed from (``pip install -e '/path/to/sma-gym[train]'``), else from
@@ -83,7 +87,9 @@ def install_hint(modules: list[str], extra: str | None = None) -> str:
     where, editable = _installed_from()
     command = f"pip install {'-e ' if editable else ''}'{where}[{','.join(extras)}]'"
     if "train" in extras:
-        command += " (CPU only: install torch first from https://download.pytorch.org/whl/cpu, see the README)"
+        # The README's pin, not a download URL: the machines we document have only the
+        # package registries, where the pinned version is a CPU wheel.
+        command = f"pip install {TORCH_PIN} {command[len('pip install ') :]} (torch pinned as in the README: unpinned, it pulls a multi-GB CUDA build)"
     return command
 
 

@@ -234,6 +234,18 @@ def test_robust_env_draws_conditions_from_its_ranges_and_reports_them():
     assert c["transformation_shift_k"] == 0.0
 
 
+def test_an_unknown_kwarg_lists_only_what_this_env_accepts():
+    """The condition kwargs are in every single env's signature but only the robustness env
+    takes them: the other envs must not offer them as a fix for a misspelt name."""
+    for env_id, offered in (("SMATracking-v0", False), ("SMARobust-v0", True)):
+        with pytest.raises(ValueError, match=r"unknown env kwargs \['n_actuators'\]") as err:
+            gym.make(f"sma_gym:{env_id}", n_actuators=2)
+        assert ("'supply_voltage_v'" in str(err.value)) is offered, str(err.value)
+    with pytest.raises(ValueError, match="unknown env kwargs") as err:
+        gym.make_vec("sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="vector_entry_point", n_actuators=2)
+    assert "'spread'" not in str(err.value) and "'model'" in str(err.value)
+
+
 @pytest.mark.parametrize(
     "model, missing",
     [

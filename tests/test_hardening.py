@@ -806,10 +806,13 @@ def test_diagnose_refuses_unusable_data_before_it_creates_out(tmp_path, capsys):
         "t,duty,position,resistance\n"
         + "".join(f"{k * 1e-3!r},{0.3 if k > 500 else 0.0},0.0,3.75\n" for k in range(3000))
     )
+    cold = tmp_path / "cold.csv"  # never heated: the position is sensor noise only
+    cold.write_text("t,duty,position\n" + "".join(f"{k * 1e-3!r},0.0,{(k % 7) * 1e-6!r}\n" for k in range(3000)))
     out = tmp_path / "d"
     cases = [
         ([str(short)], "short.csv: 0.99 ms of data, expected at least 20 control steps"),
         ([str(dead)], "no measured output varies"),
+        ([str(cold)], "cold.csv: duty = 0 in every row; expected a trace in which the wire is heated"),
         ([str(good), str(good)], "already given"),
         ([str(good), "--heldout", str(good)], "held-out data must not be fitted"),
     ]
@@ -820,7 +823,7 @@ def test_diagnose_refuses_unusable_data_before_it_creates_out(tmp_path, capsys):
     assert main(["diagnose", str(good), "--out", ""]) == 2
     assert "--out '': empty, expected a folder" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
-        ["dead.csv", "s.csv", "s.csv.json", "s.labels.json", "short.csv"]
+        ["cold.csv", "dead.csv", "s.csv", "s.csv.json", "s.labels.json", "short.csv"]
     )
 
 

@@ -24,7 +24,7 @@ LEAN = ("numpy", "numba", "gymnasium")
 
 def _hint(extras: str) -> str:
     """The install command for ``extras``: from this checkout (editable) or from the index."""
-    return rf"pip install (-e )?'[^']*(sma-gym|{re.escape(str(ROOT))})\[{re.escape(extras)}\]'"
+    return rf"pip install (torch==\S+ )?(-e )?'[^']*(sma-gym|{re.escape(str(ROOT))})\[{re.escape(extras)}\]'"
 
 
 def test_the_hint_installs_from_the_checkout_this_package_came_from():
@@ -164,7 +164,8 @@ def test_without_an_extra_each_command_names_the_extra_to_install():
         assert result[name][0] == 2 and re.search(_hint("diagnose,plots"), result[name][1]), result[name]
         assert "matplotlib, scipy not installed" in result[name][1]
     assert result["train"][0] == 2 and re.search(_hint("train"), result["train"][1])
-    assert "download.pytorch.org/whl/cpu" in result["train"][1], "the train hint warns about torch's CUDA wheel"
+    assert "pip install torch==2.13.0 " in result["train"][1], "the train hint pins torch as the README does"
+    assert "CUDA" in result["train"][1], "and says why"
     assert result["train_help"] == [0, True], "train.py --help works before the train extra is installed"
     assert result["render"] == ["MissingExtraError", result["render"][1]]
     assert re.search(_hint("plots"), result["render"][1])

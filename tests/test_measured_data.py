@@ -63,6 +63,8 @@ def test_a_malformed_row_or_cell_is_named_once(tmp_path):
         ("t,duty,position\n0,0,5\n0.001,0,6\n", "millimetres"),
         ("t,duty,position\n0,0,0\n1,0,0\n2,0,0\n", "milliseconds"),
         ("t,duty,position,speed\n0,0,0,1\n0.001,0,0,1\n", "unknown column"),
+        ("t;duty;position\n0;0;0\n0.001;0;0\n", "one column separated by ';'; expected commas"),
+        ("t\tduty\tposition\n0\t0\t0\n0.001\t0\t0\n", "separated by '\\\\t'"),
         ("t,duty,position\n0,50,0\n0.001,50,0\n", "a percentage?"),
         ("", "empty file"),
         ("t,duty,position\n0,0,0\n", "at least 2"),

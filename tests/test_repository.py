@@ -19,7 +19,10 @@ def test_readme_opens_with_the_main_job_and_the_test_command():
     main_job, tests = readme_commands()
     assert "python train.py" in main_job or ".venv/bin/python train.py" in main_job
     assert "pytest" in tests
-    assert "torch==2.13.0" in main_job and "torch==2.13.0" in tests
+    # The pin the install hints give (sma_gym.extras.TORCH_PIN), so the two never disagree.
+    from sma_gym.extras import TORCH_PIN
+
+    assert TORCH_PIN in main_job and TORCH_PIN in tests
 
 
 def test_ci_runs_the_readme_test_command_verbatim():

@@ -175,6 +175,14 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
     if not rows:
         raise MeasuredDataError([f"{where}: empty file, expected a header row {','.join(REQUIRED)}"])
     header = [h.strip() for h in rows[0]]
+    separator = next((sep for sep in (";", "\t", "|") if len(header) == 1 and sep in header[0]), None)
+    if separator is not None:
+        # One column holding every name: another separator (spreadsheets in many locales use ';').
+        raise MeasuredDataError(
+            [
+                f"{where}:1: header {header[0]!r} is one column separated by {separator!r}; expected commas ({','.join(REQUIRED)},...)"
+            ]
+        )
     for name in REQUIRED:
         if name not in header:
             problems.append(f"{where}:1:{name}: missing required column (header has {header})")
@@ -273,7 +281,7 @@ def _value_problems(columns: dict[str, np.ndarray], where: str, reported: dict[s
         i = big[0]
         problems.append(
             f"{where}:{i + 2}:position: {float(position[i]):g} m ({big.size} rows beyond +-{MAX_ABS_POSITION_M} m); "
-            "expected metres (is the position in millimetres?)"
+            "expected metres (is the position in millimetres or micrometres?)"
         )
     for name, limit, unit in (
         ("resistance", MAX_RESISTANCE_OHM, "ohm"),

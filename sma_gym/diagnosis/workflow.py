@@ -1054,6 +1054,14 @@ def require_diagnosable(
             f"{names}: no measured output varies (position and every other measured column are constant over the "
             "whole data); expected a trace in which the wire moves or its resistance changes: is the sensor connected?"
         )
+    if fit_traces and all(float(np.max(np.asarray(t.duty, dtype=float))) <= 0.0 for t in fit_traces):
+        # Only noise to fit: every model "explains" it, and a verdict of "no missing effect"
+        # would be a finding about nothing.
+        names = ", ".join(str(t.path) for t in fit_traces)
+        raise ValueError(
+            f"{names}: duty = 0 in every row; expected a trace in which the wire is heated at some point "
+            "(the diagnosis compares the model's response to the measured one)"
+        )
 
 
 def _require_file(trace: MeasuredTrace, control_period_s: float) -> None:

@@ -130,6 +130,9 @@ class Settings:
         default of :class:`Conditions`) are accepted by a randomised variant only.
         """
         accepted = tuple(name for name in arguments if name not in ("self", "unknown", "__class__"))
+        if not variant.randomised:
+            # In the signature (shared by every variant) but refused here: not worth listing.
+            accepted = tuple(name for name in accepted if name not in CONDITION_KWARGS)
         reject_unknown(arguments.get("unknown", {}), accepted)
         a = {**arguments, **fixed}
         m = load_model(variant.default_model if a["model"] is None else a["model"])
