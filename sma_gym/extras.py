@@ -80,16 +80,17 @@ TORCH_PIN = "torch==2.13.0"
 
 def install_hint(modules: list[str], extra: str | None = None) -> str:
     """The ``pip install`` command that adds the extra(s) installing ``modules``: for the
-    checkout it was installed from (``pip install -e '/path/to/sma-gym[train]'``), else from
+    checkout it was installed from (``pip install -e '/path/to/sma-gym[diagnose]'``), else from
     the index. The ``train`` extra brings torch, whose default wheel on Linux is a multi-GB
     CUDA build: the hint says so."""
     extras = [extra] if extra else sorted({EXTRA_OF_MODULE.get(m, "all") for m in modules})
     where, editable = _installed_from()
-    command = f"pip install {'-e ' if editable else ''}'{where}[{','.join(extras)}]'"
-    if "train" in extras:
-        # The README's pin, not a download URL: the machines we document have only the
-        # package registries, where the pinned version is a CPU wheel.
-        command = f"pip install {TORCH_PIN} {command[len('pip install ') :]} (torch pinned as in the README: unpinned, it pulls a multi-GB CUDA build)"
+    # The train extra brings torch: the README's pin, not a download URL (the machines we
+    # document have only the package registries, where the pinned version is a CPU wheel).
+    torch = f"{TORCH_PIN} " if "train" in extras else ""
+    command = f"pip install {torch}{'-e ' if editable else ''}'{where}[{','.join(extras)}]'"
+    if torch:
+        command += " (torch pinned as in the README: unpinned, it pulls a multi-GB CUDA build)"
     return command
 
 
