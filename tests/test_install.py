@@ -178,3 +178,23 @@ def test_require_names_every_missing_module_and_the_extra():
     assert missing("numpy", "surely_not_a_module_xyz") == ["surely_not_a_module_xyz"]
     with pytest.raises(MissingExtraError, match=r"surely_not_a_module_xyz not installed.*pip install .*\[train\]'"):
         require("numpy", "surely_not_a_module_xyz", purpose="this", extra="train")
+
+
+def test_calibration_names_a_missing_scipy_before_any_work(monkeypatch, capsys):
+    """``python -m sma_gym.calibration bench|twin`` fit with scipy: in a lean install they
+    exit 2 naming the extra, without starting (they used to fail inside the diagnosis)."""
+    import sma_gym.calibration as calibration
+    import sma_gym.extras as extras
+
+    def started():
+        raise AssertionError("the work started before the missing extra was reported")
+
+    monkeypatch.setattr(extras, "missing", lambda *modules: [m for m in modules if m == "scipy"])
+    monkeypatch.setattr(calibration, "identify_twin", started)
+    monkeypatch.setattr(calibration, "calibrate_bench", started)
+    for target in ("bench", "twin"):
+        with pytest.raises(SystemExit) as exit_:
+            calibration.main([target])
+        assert exit_.value.code == 2
+        err = capsys.readouterr().err
+        assert f"python -m sma_gym.calibration {target}" in err and re.search(_hint("diagnose"), err), err

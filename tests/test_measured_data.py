@@ -61,6 +61,7 @@ def test_a_malformed_row_or_cell_is_named_once(tmp_path):
     [
         ("t,position\n0,0\n1,0\n", "missing required column"),
         ("t,duty,position\n0,0,5\n0.001,0,6\n", "millimetres"),
+        ("t,duty,position\n0,0,5000\n0.001,0,6000\n", "micrometres"),
         ("t,duty,position\n0,0,0\n1,0,0\n2,0,0\n", "milliseconds"),
         ("t,duty,position,speed\n0,0,0,1\n0.001,0,0,1\n", "unknown column"),
         ("t;duty;position\n0;0;0\n0.001;0;0\n", "one column separated by ';'; expected commas"),
