@@ -154,6 +154,7 @@ from sma_gym.electrical.sensors import (
     DIRECTION_THRESHOLD_M_S,
     abbe_reading_offset,
     first_order,
+    first_order_decayed,
     quantise,
 )
 from sma_gym.physics.mechanics import (
@@ -170,7 +171,7 @@ from sma_gym.physics.thermal import (
     exponential_euler,
     surroundings_temperature,
 )
-from sma_gym.physics.transformation import H_COOL, H_HEAT, H_WEIGHT, H_XI_NEW, H_XI_OLD, HYSTERON_ROWS
+from sma_gym.physics.transformation import H_XI_NEW, HYSTERON_ROWS, NODE_COOL, NODE_ROWS, NODE_WEIGHT
 
 NOISE_POSITION, NOISE_RESISTANCE, NOISE_CURRENT, NOISE_VOLTAGE = 0, 1, 2, 3
 """Rows of ``advance``'s ``noise`` (and of one reading's ``noise4``)."""
@@ -188,6 +189,15 @@ CUT_WATCH_M = 2e-3
 CUT_BAND_MARGIN_M = 0.1e-3
 """The switching band runs from this far below the cut's release point up to the cut."""
 
+
+_NODES_END = P_NODE_HEAT0 + NODE_ROWS * MAX_SPREAD_NODES
+"""An actuator's hysterons are its parameters P_NODE_HEAT0 up to this, read in place: row r of
+the transformation's NODE_* rows starts at r * MAX_SPREAD_NODES of that slice."""
+if (P_NODE_COOL0, P_NODE_WEIGHT0) != (
+    P_NODE_HEAT0 + NODE_COOL * MAX_SPREAD_NODES,
+    P_NODE_HEAT0 + NODE_WEIGHT * MAX_SPREAD_NODES,
+):  # pragma: no cover - a layout edit that breaks the in-place view
+    raise ImportError("core.layout: the hysteron parameters must follow transformation.NODE_* row order")
 
 SUBSTEP_LOCATE, SUBSTEP_ENDS_STUCK, SUBSTEP_ENDS_AT_REST, SUBSTEP_PLAIN = 0, 1, 2, 3
 """Modes of ``_substep``: locate friction events, the step retaken up to a breakaway (ends
@@ -270,8 +280,27 @@ def _convection(state, params, i, t_c):
     )
 
 
-@njit(cache=True, error_model="numpy")
-def _stribeck_slide(state, params, i, h, theta, x0, v0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes, mode):
+MEMO_H, MEMO_TAU, MEMO_DECAY = 0, 1, 2
+"""Slots of the position filter's memo (see ``_filter_decay``)."""
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _filter_decay(memo, h, tau):
+    """exp(-h / tau) of the position filter (0 for tau = 0), remembered for the last (h, tau):
+    actuators of one model share tau, and a step that is not split has h = the control
+    period, so the exponential is taken about once per call instead of once per actuator
+    (the same number either way)."""
+    if h != memo[MEMO_H] or tau != memo[MEMO_TAU]:
+        memo[MEMO_H] = h
+        memo[MEMO_TAU] = tau
+        memo[MEMO_DECAY] = math.exp(-h / tau) if tau > 0.0 else 0.0
+    return memo[MEMO_DECAY]
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)  # called from _advance: see there
+def _stribeck_slide(
+    state, params, i, h, theta, x0, v0, t_pred, z0, k_ext, b_ext, wire, nodes, xi_old, hyst, n_nodes, mode
+):
     """The mechanics of one sub-step with Stribeck friction (see ``_substep``): returns
     (xi, x1, sigma1, t1, friction force, event fraction or 1.0, mode of the retake). Its own
     compiled function, so the common path (no friction, or the Coulomb form) stays lean."""
@@ -295,7 +324,9 @@ def _stribeck_slide(state, params, i, h, theta, x0, v0, t_pred, z0, k_ext, b_ext
     t1 = t_pred
     corrected = False
     for attempt in range(4):
-        z, x1, s1, t1 = solve_step(stick, x0, t_pred, z0, k_ext, b_ext - friction, wire, hyst, n_nodes)
+        z, x1, s1, t1 = solve_step(
+            stick, x0, t_pred, z0, k_ext, b_ext - friction, wire, nodes, MAX_SPREAD_NODES, xi_old, hyst, n_nodes
+        )
         if stick and attempt > 0:
             break
         if moving or attempt > 0:
@@ -349,8 +380,11 @@ def _stribeck_slide(state, params, i, h, theta, x0, v0, t_pred, z0, k_ext, b_ext
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _substep(state, params, i, h, energy_j, hyst, n_nodes, mode):
+def _substep(state, params, i, h, energy_j, h_conv0, nodes, hyst, n_nodes, memo, mode):
     """One sub-step of length h; returns (1.0, mode), or (fraction, mode of the retake).
+
+    ``h_conv0``: the convection coefficient at the state's temperature (the caller has it
+    from the sub-step's length bound). ``memo``: the workspace of :func:`_filter_decay`.
 
     ``mode`` (``SUBSTEP_*``) only matters for the Stribeck form of friction: ``LOCATE``
     returns the fraction at which the sleigh breaks away or comes to rest inside the step
@@ -372,8 +406,7 @@ def _substep(state, params, i, h, energy_j, hyst, n_nodes, mode):
     # it was first-order, and a wire latched at the cut at 20 V carried 0.07 K of that error
     # into the relay's next release (2.1 K from the 30 us reference, 0.49 K now).
     surface = params[i, P_SURFACE]
-    h_conv = _convection(state, params, i, t0)
-    t_pred = exponential_euler(t0, energy_j / h, h_conv * surface, heat_cap, t_surr, h)
+    t_pred = exponential_euler(t0, energy_j / h, h_conv0 * surface, heat_cap, t_surr, h)
     h_conv = _convection(state, params, i, 0.5 * (t0 + t_pred))
     t_pred = exponential_euler(t0, energy_j / h, h_conv * surface, heat_cap, t_surr, h)
     e_conv = energy_j - heat_cap * (t_pred - t0)
@@ -435,8 +468,8 @@ def _substep(state, params, i, h, energy_j, hyst, n_nodes, mode):
         params[i, P_LATENT],
         params[i, P_LATENT_COOL],
     )
-    for k in range(n_nodes):
-        hyst[H_XI_OLD, k] = state[i, S_XI_NODE0 + k]
+    # The hysterons' fractions at the start of the step, read in place (written only below).
+    xi_old = state[i, S_XI_NODE0 : S_XI_NODE0 + MAX_SPREAD_NODES]
 
     # Friction (coulomb_friction effect, set-valued at rest): try the stuck step first; if
     # holding needs more than static friction, slide with the kinetic force against the
@@ -454,7 +487,7 @@ def _substep(state, params, i, h, energy_j, hyst, n_nodes, mode):
     friction = 0.0
     if stribeck:
         z, x1, s1, t1, friction, event, next_mode = _stribeck_slide(
-            state, params, i, h, theta, x0, v0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes, mode
+            state, params, i, h, theta, x0, v0, t_pred, z0, k_ext, b_ext, wire, nodes, xi_old, hyst, n_nodes, mode
         )
     else:
         stick = f_c > 0.0
@@ -464,7 +497,9 @@ def _substep(state, params, i, h, energy_j, hyst, n_nodes, mode):
         s1 = 0.0
         t1 = t_pred
         for attempt in range(3):
-            z, x1, s1, t1 = solve_step(stick, x0, t_pred, z0, k_ext, b_ext - friction, wire, hyst, n_nodes)
+            z, x1, s1, t1 = solve_step(
+                stick, x0, t_pred, z0, k_ext, b_ext - friction, wire, nodes, MAX_SPREAD_NODES, xi_old, hyst, n_nodes
+            )
             if f_c <= 0.0:
                 break
             if attempt == 0:
@@ -515,7 +550,7 @@ def _substep(state, params, i, h, energy_j, hyst, n_nodes, mode):
     raw = x1 + abbe_reading_offset(
         params[i, P_ABBE], state[i, S_DIRECTION], state[i, S_TRAVEL], int(params[i, P_ABBE_FORM])
     )
-    filtered = first_order(state[i, S_FILTER], raw, h, params[i, P_TAU_FILTER])
+    filtered = first_order_decayed(state[i, S_FILTER], raw, _filter_decay(memo, h, params[i, P_TAU_FILTER]))
     state[i, S_FILTER] = filtered
     tau_lag = params[i, P_TAU_LAG]
     if tau_lag > 0.0:
@@ -535,7 +570,9 @@ def _substep(state, params, i, h, energy_j, hyst, n_nodes, mode):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _located_substep(state, params, i, seg, power, switched_on, tau, t_on, drive, stribeck, saved, hyst, n_nodes):
+def _located_substep(
+    state, params, i, seg, power, h_conv0, switched_on, tau, t_on, drive, stribeck, saved, nodes, hyst, n_nodes, memo
+):
     """Take one sub-step of at most ``seg`` seconds, ending it early at a located event.
 
     ``drive``: power would flow if the cut released (it is watched for then). Returns the
@@ -570,7 +607,7 @@ def _located_substep(state, params, i, seg, power, switched_on, tau, t_on, drive
                 # The rise of the current is timed from the switch-on edge.
                 energy = power * pulse_integral(t_on, t_on + seg, params[i, P_TAU_RISE], int(params[i, P_RISE_FORM]))
             state[i, S_PWM_TAU] = tau + seg
-        event, next_mode = _substep(state, params, i, seg, energy, hyst, n_nodes, mode)
+        event, next_mode = _substep(state, params, i, seg, energy, h_conv0, nodes, hyst, n_nodes, memo, mode)
         if event < 1.0:
             for r in range(saved.shape[0]):
                 state[i, r] = saved[r]
@@ -604,7 +641,8 @@ def _located_substep(state, params, i, seg, power, switched_on, tau, t_on, drive
     return seg
 
 
-@njit(cache=True, error_model="numpy")
+# Inlined: a call that passes three arrays cost about a tenth of a PWM-averaged step.
+@njit(cache=True, inline="always", error_model="numpy")
 def _take_readings(state, params, i, on_time, t_settle, noise4):
     """Sample position (always) and V, I, R (only if this pulse lasts past the settling).
 
@@ -625,7 +663,7 @@ def _take_readings(state, params, i, on_time, t_settle, noise4):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _control_step(state, params, i, duty_cmd, dt, noise4, hyst, n_nodes, saved):
+def _control_step(state, params, i, duty_cmd, dt, noise4, nodes, hyst, n_nodes, saved, memo):
     duty = duty_cmd
     if duty < 0.0:
         duty = 0.0
@@ -744,14 +782,17 @@ def _control_step(state, params, i, duty_cmd, dt, noise4, hyst, n_nodes, saved):
             i,
             seg,
             power,
+            h_conv,
             switched_on,
             tau if resolved else 0.0,
             t_on,
             drive,
             stribeck,
             saved,
+            nodes,
             hyst,
             n_nodes,
+            memo,
         )
         remaining -= seg
     if resolved:
@@ -779,27 +820,35 @@ def advance(state, params, duty, dt, noise, record, record_fields):
         an array with n_steps = 0 to record nothing.
     record_fields : int64 array of state fields (layout indices) to record.
     """
+    hyst = np.empty((HYSTERON_ROWS, MAX_SPREAD_NODES))
+    noise4 = np.zeros(4)
+    saved = np.empty(state.shape[1])
+    memo = np.full(3, np.nan)
+    _advance(state, params, duty, dt, noise, record, record_fields, hyst, noise4, saved, memo)
+
+
+# Compiled without numba's reference counting (``_nrt=False``, as numba's own hot helpers
+# are): with it, every array handed to an inlined function and every view was a pair of
+# atomic updates, about 45 per actuator and step and a fifth of the simulator's time. Nothing
+# here allocates (``advance`` passes the workspaces in) or outlives the call, so nothing
+# needs counting; an allocation added here fails to compile rather than leak.
+@njit(cache=True, error_model="numpy", nogil=True, _nrt=False)
+def _advance(state, params, duty, dt, noise, record, record_fields, hyst, noise4, saved, memo):
     n = state.shape[0]
     n_steps = duty.shape[0]
     have_noise = noise.shape[0] > 0
     have_record = record.shape[0] > 0
     n_rec = record_fields.shape[0]
-    hyst = np.empty((HYSTERON_ROWS, MAX_SPREAD_NODES))
-    noise4 = np.zeros(4)
-    saved = np.empty(state.shape[1])
     # Each actuator's state and parameters are contiguous (actuator-major), so the loop streams
     # through memory once per step however many actuators there are.
     for s in range(n_steps):
         for i in range(n):
             n_nodes = int(params[i, P_N_NODES])
-            for k in range(n_nodes):
-                hyst[H_HEAT, k] = params[i, P_NODE_HEAT0 + k]
-                hyst[H_COOL, k] = params[i, P_NODE_COOL0 + k]
-                hyst[H_WEIGHT, k] = params[i, P_NODE_WEIGHT0 + k]
+            nodes = params[i, P_NODE_HEAT0:_NODES_END]
             if have_noise:
                 for r in range(4):
                     noise4[r] = noise[s, r, i]
-            _control_step(state, params, i, duty[s, i], dt, noise4, hyst, n_nodes, saved)
+            _control_step(state, params, i, duty[s, i], dt, noise4, nodes, hyst, n_nodes, saved, memo)
             if have_record:
                 for j in range(n_rec):
                     record[s, j, i] = state[i, record_fields[j]]

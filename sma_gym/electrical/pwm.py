@@ -48,7 +48,9 @@ def pulse_integral(a, b, tau, form):
         if a > start:
             start = a
         return b - start if b > start else 0.0
-    ea = math.exp(-a / tau)
+    # From the switch-on edge (a = 0, every PWM-averaged step) exp(-0) = 1 exactly: one
+    # exponential fewer per step.
+    ea = math.exp(-a / tau) if a != 0.0 else 1.0
     eb = math.exp(-b / tau)
     return (b - a) + 2.0 * tau * (eb - ea) - 0.5 * tau * (eb * eb - ea * ea)
 

@@ -42,6 +42,14 @@ def first_order(y, u, h, tau):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
+def first_order_decayed(y, u, decay):
+    """The step of :func:`first_order` with its decay exp(-h / tau) given (0: y = u)."""
+    if decay == 0.0:
+        return u
+    return u + (y - u) * decay
+
+
+@njit(cache=True, inline="always", error_model="numpy")
 def abbe_reading_offset(offset_m, direction, travel_m, form):
     """Offset added to the true position by the Abbe error [m]."""
     if offset_m == 0.0:

@@ -44,12 +44,11 @@ from typing import NamedTuple
 
 from sma_gym._jit import njit
 from sma_gym.physics.transformation import (
-    H_COOL,
-    H_HEAT,
     H_U_STAR,
-    H_WEIGHT,
     H_XI_NEW,
-    H_XI_OLD,
+    NODE_COOL,
+    NODE_HEAT,
+    NODE_WEIGHT,
     cosine_fraction,
     cosine_fraction_inverse,
     cosine_fraction_slope,
@@ -106,7 +105,7 @@ def kinetic_friction(f_c, velocity, form):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _evaluate(z, stick, x0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes):
+def _evaluate(z, stick, x0, t_pred, z0, k_ext, b_ext, wire, nodes, stride, xi_old, hyst, n_nodes):
     """Z(z) and dZ/dz for a trial mean martensite fraction z; fills ``hyst[H_XI_NEW]``.
 
     Returns (Z, dZ, x1, sigma1, t1).
@@ -152,47 +151,44 @@ def _evaluate(z, stick, x0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes):
     du_c = (lam - dsigma / c_m) * inv_c
     big_z = 0.0
     dbig_z = 0.0
-    shift_h = hyst[H_HEAT]
-    shift_c = hyst[H_COOL]
-    weights = hyst[H_WEIGHT]
-    xi_nodes0 = hyst[H_XI_OLD]
-    xi_nodes_out = hyst[H_XI_NEW]
-    u_star = hyst[H_U_STAR]
     for k in range(n_nodes):
-        u_h = (t1 - shift_h[k] - a_s - sigma1 / c_a) * inv_h
-        u_c = (t1 - shift_c[k] - m_f - sigma1 / c_m) * inv_c
-        # F is decreasing, so F(u_h) < old exactly when u_h > u_star[k] = F^-1(old): the
+        u_h = (t1 - nodes[NODE_HEAT * stride + k] - a_s - sigma1 / c_a) * inv_h
+        u_c = (t1 - nodes[NODE_COOL * stride + k] - m_f - sigma1 / c_m) * inv_c
+        # F is decreasing, so F(u_h) < old exactly when u_h > u_star = F^-1(old): the
         # comparison needs no cosine, and only a hysteron on a branch evaluates one.
-        if u_h > u_star[k]:
+        u_star = hyst[H_U_STAR, k]
+        if u_h > u_star:
             xi = cosine_fraction(u_h)
             dxi = cosine_fraction_slope(u_h) * du_h
-        elif u_c < u_star[k]:
+        elif u_c < u_star:
             xi = cosine_fraction(u_c)
             dxi = cosine_fraction_slope(u_c) * du_c
         else:
-            xi = xi_nodes0[k]
+            xi = xi_old[k]
             dxi = 0.0
-        xi_nodes_out[k] = xi
-        big_z += weights[k] * xi
-        dbig_z += weights[k] * dxi
+        hyst[H_XI_NEW, k] = xi
+        big_z += nodes[NODE_WEIGHT * stride + k] * xi
+        dbig_z += nodes[NODE_WEIGHT * stride + k] * dxi
     return big_z, dbig_z, x1, sigma1, t1
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def solve_step(stick, x0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes):
+def solve_step(stick, x0, t_pred, z0, k_ext, b_ext, wire, nodes, stride, xi_old, hyst, n_nodes):
     """One implicit step: returns (z, x1, sigma1, t1) and fills ``hyst[H_XI_NEW]``.
 
     ``k_ext`` and ``b_ext`` hold the implicit step's mechanics: the new position solves
     k_ext x1 = b_ext + A sigma(x1, z) unless ``stick`` (then x1 = x0). ``wire`` holds the
     wire's constants (:class:`WireConstants`); the hysterons are the first ``n_nodes``
-    columns of the workspace ``hyst`` (:data:`HYSTERON_ROWS`): their shifts and weights,
-    and their old fractions in row ``H_XI_OLD``.
+    entries of each row of ``nodes`` (their shifts and weights: row r of the ``NODE_*`` rows of
+    :mod:`~sma_gym.physics.transformation` starts at ``r * stride`` of this flat array) and
+    of ``xi_old`` (their fractions at the start of the step) and columns of the workspace
+    ``hyst`` (:data:`HYSTERON_ROWS`).
     """
     # r(z) = z - Z(z) is increasing with slope >= 1, and r(Z(z0)) has the opposite sign of
     # r(z0): the first evaluation at z0 brackets the root. Newton steps, bisection if a step
     # leaves the bracket. (One evaluation site, so the compiled code inlines it once.)
     for k in range(n_nodes):
-        hyst[H_U_STAR, k] = cosine_fraction_inverse(hyst[H_XI_OLD, k])
+        hyst[H_U_STAR, k] = cosine_fraction_inverse(xi_old[k])
     z = z0
     lo = 0.0
     hi = 1.0
@@ -200,7 +196,9 @@ def solve_step(stick, x0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes):
     sigma1 = 0.0
     t1 = t_pred
     for it in range(80):
-        big_z, dbig_z, x1, sigma1, t1 = _evaluate(z, stick, x0, t_pred, z0, k_ext, b_ext, wire, hyst, n_nodes)
+        big_z, dbig_z, x1, sigma1, t1 = _evaluate(
+            z, stick, x0, t_pred, z0, k_ext, b_ext, wire, nodes, stride, xi_old, hyst, n_nodes
+        )
         r = z - big_z
         if it == 0:
             if r == 0.0:

@@ -116,21 +116,26 @@ def _width_ranks(n: int, pairing: str) -> tuple[int, ...]:
     return min(candidates, key=correlation)
 
 
-# The hysteron workspace of the compiled step: one row per quantity, one column per
-# hysteron (up to layout.MAX_SPREAD_NODES), so the step passes one array, not six.
-H_HEAT = 0
+# An actuator's hysterons as the compiled step reads them: one row per quantity, one column
+# per hysteron (up to layout.MAX_SPREAD_NODES). It is a view of the actuator's parameter
+# row (layout's P_NODE_HEAT0 block, in this order), not a copy: copying it for every
+# actuator and step took 5 % of the simulator's time.
+NODE_HEAT = 0
 """Row: each hysteron's heating-branch shift (K), from :func:`hysteron_nodes`."""
-H_COOL = 1
+NODE_COOL = 1
 """Row: each hysteron's cooling-branch shift (K)."""
-H_WEIGHT = 2
+NODE_WEIGHT = 2
 """Row: each hysteron's weight (they sum to 1)."""
-H_XI_OLD = 3
-"""Row: each hysteron's martensite fraction at the start of the step."""
-H_XI_NEW = 4
+NODE_ROWS = 3
+"""Rows of an actuator's hysteron parameters."""
+
+# The hysteron workspace of the compiled step, one column per hysteron: what the solver fills.
+# (The fractions at the start of the step are read in place from the state.)
+H_XI_NEW = 0
 """Row: each hysteron's martensite fraction at the end of the step (filled by the solver)."""
-H_U_STAR = 5
+H_U_STAR = 1
 """Row: scratch, the branch coordinate at which each hysteron's old fraction lies."""
-HYSTERON_ROWS = 6
+HYSTERON_ROWS = 2
 """Rows of the hysteron workspace."""
 
 
