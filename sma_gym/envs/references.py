@@ -92,7 +92,8 @@ class Reference:
         return d
 
 
-@njit(cache=True, error_model="numpy")
+# Without reference counting: called per actuator and step from envs.task (see there).
+@njit(cache=True, error_model="numpy", _nrt=False)
 def evaluate(kind, p, wp_t, wp_x, t):
     """(r, dr/dt) of one reference at time t."""
     if kind == STEP:
