@@ -17,6 +17,7 @@ folder (the work tree is not touched) and run with this environment's packages.
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 import tarfile
@@ -73,10 +74,14 @@ def export_package(rev: str, into: Path) -> Path:
     return into
 
 
-def timing(package_root: Path, n: int, mode: str) -> float:
-    """One best-of-1 timing in a fresh process with ``package_root``'s ``sma_gym`` first on the path."""
+def timing(package_root: Path, n: int, mode: str, cache_dir: Path) -> float:
+    """One best-of-1 timing in a fresh process with ``package_root``'s ``sma_gym`` first on the path
+    and numba's cache in ``cache_dir``."""
     proc = subprocess.run(
-        [sys.executable, "-c", _ONE_TIMING, str(package_root), str(n), mode], capture_output=True, text=True
+        [sys.executable, "-c", _ONE_TIMING, str(package_root), str(n), mode],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "NUMBA_CACHE_DIR": str(cache_dir)},
     )
     if proc.returncode != 0:
         raise RuntimeError(f"timing of {package_root} failed:\n{proc.stderr[-2000:]}")
@@ -85,13 +90,19 @@ def timing(package_root: Path, n: int, mode: str) -> float:
 
 def against(rev: str, repeats: int) -> None:
     with tempfile.TemporaryDirectory(prefix="sma-gym-bench-") as tmp:
-        other = export_package(rev, Path(tmp))
+        other = export_package(rev, Path(tmp) / "other")
+        # Each side gets an empty numba cache of its own, so both compile in their first
+        # process and load the cache in the others. The same kernel runs up to 8 % faster
+        # as compiled in the process than as loaded from the cache, so a side that found a
+        # cache from earlier runs while the other compiled fresh was measured slower
+        # (0.84 against 0.89 of b6ff60b for one commit, 2026-11-29).
+        caches = {"this": Path(tmp) / "cache-this", rev: Path(tmp) / "cache-other"}
         print(f"this code against {rev} (n = 4096, alternating processes, best of {repeats}):")
         for mode in ("averaged", "resolved"):
             best = {"this": 0.0, rev: 0.0}
             for _ in range(repeats):
-                best["this"] = max(best["this"], timing(ROOT, 4096, mode))
-                best[rev] = max(best[rev], timing(other, 4096, mode))
+                best["this"] = max(best["this"], timing(ROOT, 4096, mode, caches["this"]))
+                best[rev] = max(best[rev], timing(other, 4096, mode, caches[rev]))
             print(
                 f"  {mode:9s} this {best['this']:12,.0f}  {rev} {best[rev]:12,.0f}"
                 f"  ratio this / {rev} {best['this'] / best[rev]:.2f}"
