@@ -154,6 +154,7 @@ from sma_gym.electrical.sensors import (
     DIRECTION_THRESHOLD_M_S,
     abbe_reading_offset,
     first_order,
+    first_order_decay,
     first_order_decayed,
     quantise,
 )
@@ -293,7 +294,7 @@ def _filter_decay(memo, h, tau):
     if h != memo[MEMO_H] or tau != memo[MEMO_TAU]:
         memo[MEMO_H] = h
         memo[MEMO_TAU] = tau
-        memo[MEMO_DECAY] = math.exp(-h / tau) if tau > 0.0 else 0.0
+        memo[MEMO_DECAY] = first_order_decay(h, tau)
     return memo[MEMO_DECAY]
 
 

@@ -34,19 +34,23 @@ DIRECTION_THRESHOLD_M_S = 1e-4
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def first_order(y, u, h, tau):
-    """Exact step of y' = (u - y) / tau over h with u held (tau = 0: y = u)."""
-    if tau <= 0.0:
-        return u
-    return u + (y - u) * math.exp(-h / tau)
+def first_order_decay(h, tau):
+    """exp(-h / tau): the share of its old value a first-order lag keeps over h (0 for tau = 0)."""
+    return math.exp(-h / tau) if tau > 0.0 else 0.0
 
 
 @njit(cache=True, inline="always", error_model="numpy")
 def first_order_decayed(y, u, decay):
-    """The step of :func:`first_order` with its decay exp(-h / tau) given (0: y = u)."""
+    """The step of :func:`first_order` with its :func:`first_order_decay` given (0: y = u)."""
     if decay == 0.0:
         return u
     return u + (y - u) * decay
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def first_order(y, u, h, tau):
+    """Exact step of y' = (u - y) / tau over h with u held (tau = 0: y = u)."""
+    return first_order_decayed(y, u, first_order_decay(h, tau))
 
 
 @njit(cache=True, inline="always", error_model="numpy")
