@@ -379,7 +379,15 @@ def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str,
             [
                 {
                     k: (round(c[k], 4) if isinstance(c.get(k), float) else c.get(k))
-                    for k in ("name", "delta_bic", "heldout_normalised_rms", "heldout_gain", "supported", "inert")
+                    for k in (
+                        "name",
+                        "delta_bic",
+                        "heldout_normalised_rms",
+                        "heldout_gain",
+                        "supported",
+                        "inert",
+                        "form",
+                    )
                 }
                 for c in r["candidates"]
             ]

@@ -152,8 +152,9 @@ def _round_lines(result: Diagnosis) -> list[str]:
         "",
         "Each round refits the nominal parameters and the effects found so far with every remaining "
         "candidate (an ambiguous or unexplained round also fits its best names in pairs, and names a pair "
-        "that beats each member alone; an effect found before moves to another form when that form fits "
-        "as a new effect must); it stops when nothing is supported, the verdict is ambiguous, or the held-out "
+        "that beats each member alone; an unexplained round also refits its candidates with evidence in "
+        "their other forms; an effect found before moves to another form when that form fits and predicts "
+        "better); it stops when nothing is supported, the verdict is ambiguous, or the held-out "
         "residual is within 2x the noise (normalised RMS 1 = noise). When effects were found in more than "
         "one round, each earlier one is then refitted out, and one the model no longer fits better by the BIC "
         "bar and predicts better with is taken out (the last row says so and shows the model without it).",
@@ -165,6 +166,8 @@ def _round_lines(result: Diagnosis) -> list[str]:
         effect = r["effect"]
         if not (isinstance(effect, str) or effect is None):  # a pair named together, or an ambiguous set
             effect = (" and " if r["verdict"] == "effects" else " or ").join(effect)
+        for name, form in (r.get("named_forms") or {}).items():
+            effect = effect.replace(name, f"{name} (its '{form}' form)")
         for name, form in (r.get("form_changed") or {}).items():
             effect = f"{effect}; " if effect else ""
             effect += f"{name} in its '{form}' form"

@@ -10,9 +10,12 @@ this module only declares them and turns a user's settings into the numbers the 
 core reads. The diagnosis workflow uses exactly these declarations as its candidates.
 
 Some effects have alternative *forms* (e.g. a second-order instead of a first-order sensor
-lag). Candidates are always fitted in the ``default`` form; the other forms exist so that
-synthetic test data can hide an effect in a shape that differs from the candidate's (the
-'inverse crime' of fitting data with the model that generated it).
+lag). Candidates are first fitted in the ``default`` form; the diagnosis tries the other
+forms only where the data ask for them (an effect found, in later rounds; a candidate with
+evidence in an ``unexplained`` round; ``sma_gym.diagnosis.workflow``). Synthetic test data
+hide an effect in its other form, so that the first fit never meets the shape that made the
+data (the 'inverse crime' of fitting data with the model that generated it); the
+independent generator of the tests has forms of its own.
 """
 
 from __future__ import annotations
