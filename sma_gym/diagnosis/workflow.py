@@ -658,8 +658,9 @@ def _other_forms(
     """Candidates of an ``unexplained`` round refitted in their other forms: those with
     evidence of either kind (past the BIC bar on the fitted data or past the gain bar held
     out, not inert), at most ``MAX_FORM_CANDIDATES`` of them, best BIC first. Returns, by
-    effect name, each form that fits better than the candidate's default form (lower BIC:
-    the fitted data choose the form, the held-out data then judge the effect as always).
+    effect name, the best-fitting of its other forms where that fits better than the
+    candidate's default form (lower BIC: the fitted data choose the form, the held-out data
+    then judge the effect as always).
 
     As a new candidate is fitted: from the refit's nominal values and the form's own
     starts (a value means something else in another form), sweeping the effect's range."""
