@@ -374,25 +374,10 @@ def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str,
         heldout_nominal_refit=first.get("nominal_refit_heldout_normalised_rms"),
         heldout_final=final_heldout(result),
         parameters_at_bounds=first.get("parameters_at_bounds", []),
+        # Effects the pruning took out at the end (docs/diagnosis.md, Verdict rules).
+        removed=[r["effect"] for r in result.rounds[-1].get("removed") or []] if result.rounds else [],
         # Every round's candidates in brief: why a name was or was not given.
-        round_candidates=[
-            [
-                {
-                    k: (round(c[k], 4) if isinstance(c.get(k), float) else c.get(k))
-                    for k in (
-                        "name",
-                        "delta_bic",
-                        "heldout_normalised_rms",
-                        "heldout_gain",
-                        "supported",
-                        "inert",
-                        "form",
-                    )
-                }
-                for c in r["candidates"]
-            ]
-            for r in result.rounds
-        ],
+        round_candidates=round_candidates(result),
         position_rms_before_m=result.gap_before.get("heldout", {}).get("position"),
         position_rms_after_m=result.gap_after.get("heldout", {}).get("position"),
         noise=result.noise,
@@ -403,10 +388,21 @@ def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str,
     return record
 
 
+def round_candidates(result: Diagnosis) -> list[list[dict[str, Any]]]:
+    """Every round's candidates in brief: why a name was or was not given."""
+    keys = ("name", "delta_bic", "heldout_normalised_rms", "heldout_gain", "supported", "inert", "form")
+    return [
+        [{k: (round(c[k], 4) if isinstance(c.get(k), float) else c.get(k)) for k in keys} for c in r["candidates"]]
+        for r in result.rounds
+    ]
+
+
 def final_heldout(result: Diagnosis) -> float | None:
     """Held-out normalised RMS of the corrected model the diagnosis returns: the last
     round's (each round records the model it leaves: its choice when it named one or was
-    ambiguous, else the previous round's, else, nothing found, the nominal refit)."""
+    ambiguous, else its refit of the effects found where that predicts better, else the
+    previous round's, else, nothing found, the nominal refit; after pruning, the model
+    without the effects taken out)."""
     if not result.rounds:
         return None
     return result.rounds[-1]["heldout_normalised_rms"]
@@ -718,7 +714,9 @@ def run_pairs(
                 category=classify_pair(case.truth, result.verdict, named),
                 round_verdicts=[r["verdict"] for r in result.rounds],
                 round_effects=[r.get("effect") for r in result.rounds],
+                removed=[r["effect"] for r in result.rounds[-1].get("removed") or []],
                 heldout_final=final_heldout(result),
+                round_candidates=round_candidates(result),
                 seconds=time.perf_counter() - t0,
             )
         records.append(record)

@@ -155,9 +155,11 @@ def _round_lines(result: Diagnosis) -> list[str]:
         "that beats each member alone; an unexplained round also refits its candidates with evidence in "
         "their other forms; an effect found before moves to another form when that form fits and predicts "
         "better); it stops when nothing is supported, the verdict is ambiguous, or the held-out "
-        "residual is within 2x the noise (normalised RMS 1 = noise). When effects were found in more than "
-        "one round, each earlier one is then refitted out, and one the model no longer fits better by the BIC "
-        "bar and predicts better with is taken out (the last row says so and shows the model without it).",
+        "residual is within 2x the noise (normalised RMS 1 = noise). A round that names nothing keeps its "
+        "refit of the effects found where that predicts better than the model it started from. When effects "
+        "were found in more than one round (or that refit holds two or more), each earlier one is then "
+        "refitted out, and one the model no longer fits better by the BIC bar and predicts better with is "
+        "taken out, the rest judged again without it (the last row says so and shows the model without them).",
         "",
         "| round | verdict | effect | held-out normalised RMS (refit only -> the round's model) | held-out position RMS | parameters at a bound |",
         "|---|---|---|---|---|---|",
@@ -171,8 +173,10 @@ def _round_lines(result: Diagnosis) -> list[str]:
         for name, form in (r.get("form_changed") or {}).items():
             effect = f"{effect}; " if effect else ""
             effect += f"{name} in its '{form}' form"
-        removed = r.get("removed")
-        if removed:
+        if r.get("refit_adopted"):
+            effect = f"{effect}; " if effect else ""
+            effect += "the effects found refitted (predicts better: kept)"
+        for removed in r.get("removed") or []:
             effect = f"{effect}; " if effect else ""
             effect += (
                 f"then {removed['effect']} taken out (with it ΔBIC {removed['delta_bic_of_keeping']:+.1f}, "
@@ -213,8 +217,8 @@ def _round_label(result: Diagnosis, entry: dict[str, Any]) -> str:
         added = f"ambiguous,\ncarries {result.carried}"
     else:
         added = f"{entry['verdict']}:\nnothing added"
-    if entry.get("removed"):
-        added += f"\n- {entry['removed']['effect']}"
+    for removed in entry.get("removed") or []:
+        added += f"\n- {removed['effect']}"
     return f"round {entry['round']}\n{added}"
 
 
