@@ -449,7 +449,7 @@ def diagnose(
     assert first is not None and last is not None  # round 1 always runs
     # A last round that kept its refit of the effects found moved every one of them: each
     # is then judged against the others as an earlier round's effect is.
-    refreshed = bool(rounds[-1].get("refit_adopted"))
+    refreshed = rounds[-1]["refit_adopted"]
     if chosen_fit is not None and len(found) > 1 and (len(set(found_in.values())) > 1 or refreshed):
         latest = len(rounds) if refreshed else max(found_in.values())
         earlier = [e for e in found if found_in[e] < latest]
@@ -742,8 +742,8 @@ def _pruned(
     selection, with looser bars than the entry's: each earlier effect is taken out and the
     rest refitted; it stays only if the full model still fits better by the BIC bar *and*
     predicts the held-out data better by more than ``PRUNE_MARGIN``. Of those that fail,
-    the one whose removal leaves the best held-out score goes (one per diagnosis: removing
-    one changes what the others explain).
+    the one whose removal leaves the best held-out score goes (one per call: removing one
+    changes what the others explain, so ``diagnose`` calls again on the rest).
     """
     n_eff = max(full.k + 2.0, full.n / full.correlation_time_samples)
     kept = _candidate(full, held_problem, n_eff)
