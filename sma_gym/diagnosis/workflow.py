@@ -702,7 +702,7 @@ def _other_forms(
     )[:MAX_FORM_CANDIDATES]
     out: dict[str, Candidate] = {}
     for c in evidence:
-        warm = {k: v for k, v in ref.fit.values_by_name().items() if not k.startswith(f"{c.name}.")}
+        warm = _warm_without(ref, c.name)
         best = c
         for form in EFFECTS[c.name].forms:
             if form == _form_of(c):
@@ -1059,6 +1059,13 @@ def _best_reference(
     return _candidate(again, held_problem, n_eff)
 
 
+def _warm_without(ref: Candidate, name: str) -> dict[str, float]:
+    """Warm start for fitting effect ``name`` in another form: ``ref``'s values but the
+    effect's own, which start from the form's own starts (a value means something else in
+    another form)."""
+    return {k: v for k, v in ref.fit.values_by_name().items() if not k.startswith(f"{name}.")}
+
+
 def _form_references(
     found: Sequence[str],
     forms: dict[str, str],
@@ -1082,9 +1089,7 @@ def _form_references(
                 continue
             params = tuple(p for p in base_params if p.effect != name) + fitting.effect_parameters(name, form)
             say(f"reference: {name} in its '{form}' form")
-            # The effect's own parameters start from the form's own starts: a value means
-            # something else in another form.
-            warm = {k: v for k, v in ref.fit.values_by_name().items() if not k.startswith(f"{name}.")}
+            warm = _warm_without(ref, name)
             fit = problem.fit(
                 f"{name} ({form})", params, warm=warm, max_nfev=FORM_MAX_NFEV, sweep=REFIT_SWEEP, sweep_effect=name
             )
