@@ -570,6 +570,30 @@ def test_binary_directories_lists_and_endless_files_name_the_file(tmp_path):
             load_model("/dev/zero")
 
 
+def test_a_faster_controller_is_replayed_with_the_mean_of_its_commands():
+    """A file logged with a 2 kHz controller (every other command off) is decimated to the
+    model's 1 kHz steps with each kept row holding the mean duty: the nominal model then
+    replays it within 0.01 mm (keeping every other command, it saw twice the power and was
+    4.9 mm off on a 4.6 mm stroke)."""
+    from sma_gym import ModelConfig, Simulator
+    from sma_gym.data import MeasuredTrace
+    from sma_gym.diagnosis import fitting
+    from sma_gym.diagnosis.workflow import _decimated
+
+    model, dt = ModelConfig(), 5e-4
+    t = np.arange(24_000) * dt
+    level = np.where((t % 6.0 < 3.0) & (t >= 1.0), 0.12, 0.0)
+    duty = np.where(np.arange(t.size) % 2 == 0, 2.0 * level, 0.0)
+    rec = Simulator([model], control_period_s=dt).run(duty[:, None], record=("position_m",))
+    trace = MeasuredTrace(path="fast.csv", t=t, duty=duty, position=np.r_[0.0, rec["position_m"][:-1, 0]])
+    said: list[str] = []
+    data = fitting.prepare(_decimated(trace, 1e-3, said.append), 1e-3)
+    assert "duty is averaged" in said[0]
+    sim = fitting.simulate([model], [0.0], data, 1e-3)["position"][:, 0]
+    assert np.sqrt(np.mean((sim - data.outputs["position"]) ** 2)) < 1e-5
+    assert trace.position.max() > 4e-3
+
+
 def test_diagnose_shows_progress_and_decimates_oversampled_files(tmp_path, capsys):
     from sma_gym.data import load_trace
     from sma_gym.diagnosis.workflow import _decimated

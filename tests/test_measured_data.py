@@ -122,6 +122,20 @@ def test_zero_order_hold_resampling_to_control_steps():
     assert np.allclose(duty, [0.0, 0.0, 0.5, 0.5, 1.0, 1.0])
 
 
+def test_a_control_step_spanning_rows_gets_their_time_weighted_mean_duty():
+    """A 2 kHz controller's alternating commands replayed at 1 kHz deliver their mean, not
+    the one at each step's start; a jittered row boundary inside a step blends the two rows."""
+    t = np.arange(40) * 5e-4
+    fast = MeasuredTrace(path="x", t=t, duty=np.where(np.arange(40) % 2 == 0, 0.3, 0.0), position=np.zeros(40))
+    assert np.allclose(fast.duty_at_control_steps(1e-3)[1], 0.15)
+    jitter = MeasuredTrace(
+        path="y", t=np.array([0.0, 0.0104, 0.02]), duty=np.array([0.0, 1.0, 0.5]), position=np.zeros(3)
+    )
+    ends, duty = jitter.duty_at_control_steps(1e-3)
+    assert duty[9] == 0.0 and duty[10] == pytest.approx(0.6) and duty[11] == 1.0
+    assert duty[-1] == 1.0  # the step ending at the last row is still the row before's hold
+
+
 def test_the_real_bench_files_load_when_present():
     folder = find_real_data_dir()
     if folder is None:

@@ -116,15 +116,37 @@ class MeasuredTrace:
         return out
 
     def duty_at_control_steps(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """The duty as a zero-order hold sampled at control steps of ``dt`` from t[0].
+        """The duty per control step of ``dt`` from t[0]: each row's duty held until the next
+        row (a zero-order hold), averaged over the step (:meth:`mean_duty`).
 
         Returns (times of the step ends, duty per step).
         """
         n = int(math.floor((self.t[-1] - self.t[0]) / dt + 1e-9))
         ends = self.t[0] + dt * np.arange(1, n + 1)
-        starts = ends - dt
-        idx = np.searchsorted(self.t, starts + 1e-12, side="right") - 1
-        return ends, self.duty[np.clip(idx, 0, len(self.duty) - 1)]
+        return ends, self.mean_duty(ends - dt, ends)
+
+    def mean_duty(self, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """Mean of the held duty over each interval [start, end): the energy a PWM delivers
+        there. An interval inside one row's hold gets that row's duty exactly; one that
+        spans several rows (a controller commanding faster than the model's control step,
+        or jittered timestamps) their time-weighted mean, not the duty at its start (which
+        would drop every other command of a 2 kHz controller replayed at 1 kHz)."""
+        last_row = len(self.duty) - 1
+        first = np.clip(np.searchsorted(self.t, starts + 1e-12, side="right") - 1, 0, last_row)
+        last = np.clip(np.searchsorted(self.t, ends - 1e-12, side="right") - 1, 0, last_row)
+        duty = self.duty[first].astype(float)
+        spans = last > first
+        if spans.any():
+            # Integral of the held duty from t[0] to each row's start, then to any time.
+            held = np.r_[0.0, np.cumsum(np.diff(self.t) * self.duty[:-1])]
+
+            def integral(x: np.ndarray) -> np.ndarray:
+                k = np.clip(np.searchsorted(self.t, x, side="right") - 1, 0, last_row)
+                return held[k] + (x - self.t[k]) * self.duty[k]
+
+            a, b = starts[spans], ends[spans]
+            duty[spans] = (integral(b) - integral(a)) / (b - a)
+        return duty
 
     def slice(self, start_s: float, stop_s: float) -> MeasuredTrace:
         keep = (self.t >= start_s) & (self.t <= stop_s)
