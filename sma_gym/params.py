@@ -64,7 +64,8 @@ class Wire:
 
     martensite_start_c: float = 95.0
     """M_s [degC] = 95 at zero stress (Table 5.1). Unusually above A_s; kept because with it
-    A_s - M_f = A_f - M_s = 15 K, i.e. the major loop is a constant 15 K hysteresis."""
+    A_s - M_f = A_f - M_s = 15 K, i.e. the report's major loop is a constant 15 K hysteresis
+    (each hysteron's at most; the nominal wire's, spread by ``hysteron_width_spread``, 7-8 K)."""
 
     martensite_finish_c: float = 60.0
     """M_f [degC] = 60 at zero stress (Table 5.1, §3.1)."""
@@ -127,7 +128,10 @@ class Wire:
     width min(A_s - M_f, A_f - M_s) = 15 K: 1 spreads them uniformly over [0, 15 K], 0 gives
     every hysteron the full width (``minor_loop_law="play"`` behaviour). Real wires move
     back within about a kelvin after a reversal (the report's rescaled-cosine law does too,
-    and Table 6.1's small sine errors while cooling need it); only narrow hysterons do that."""
+    and Table 6.1's small sine errors while cooling need it); only narrow hysterons do that.
+    The wire's major loop is the hysterons' mean width, 15 (1 - w / 2) K: 7-8 K at w = 1
+    (docs/model.md §3; spreading the widths about the full 15 K instead keeps the report's
+    loop but lost 8 fidelity rows, measured 2026-11-29)."""
 
     hysteron_width_pairing: str = "uncorrelated"
     """Which hysteron gets which loop width (``physics.transformation.WIDTH_PAIRINGS``):
@@ -182,7 +186,7 @@ class Wire:
     resistivity_tcr_austenite_1_k: float = 1.0e-3
     """alpha_R,A [1/K] = 1e-3: relative temperature coefficient of the austenite resistivity
     (metallic, positive). With alpha_R,M it makes the heating and cooling R(x) branches, which
-    lie 15 K apart, differ in slope (§4.2, fig. 4.9)."""
+    lie 7-8 K apart in the nominal wire (15 K in the report's), differ in slope (§4.2, fig. 4.9)."""
 
     resistivity_reference_c: float = 20.0
     """T_ref [degC] = 20: temperature at which rho_M and rho_A are given."""

@@ -152,6 +152,27 @@ def test_nominal_law_moves_back_within_a_few_kelvin_of_a_reversal_and_never_jump
     assert xi[-1] > xi[k] + 0.3
 
 
+def _major_loop_widths(model, fractions=(0.25, 0.5, 0.75)) -> list[float]:
+    """Heat and cool quasi-statically (a 200 s half sine of duty to 0.16): the temperature
+    difference [K] between the heating and the cooling branch at each fraction of the stroke."""
+    t = np.arange(200_000) * 1e-3
+    _, out = run(model, duty=0.16 * np.sin(np.pi * t / t[-1]))
+    temp, x = out["temperature_c"][:, 0], out["position_m"][:, 0]
+    k = int(np.argmax(x))
+    widths = []
+    for f in fractions:
+        level = f * x[k]
+        widths.append(float(temp[: k + 1][np.argmax(x[: k + 1] >= level)] - temp[k:][np.argmax(x[k:] <= level)]))
+    return widths
+
+
+def test_the_major_loop_is_the_hysterons_mean_width():
+    """docs/model.md §3: the play law keeps the report's 15 K loop; the nominal law's widths,
+    spread over [0, 15 K], make it 15 (1 - w / 2) = 7.5 K (measured 7.4-8.0 K along the stroke)."""
+    assert _major_loop_widths(PLAY) == pytest.approx([15.0] * 3, abs=0.6)
+    assert _major_loop_widths("standard") == pytest.approx([7.7] * 3, abs=0.6)
+
+
 NARROW_COLD = ModelConfig(preset("standard")).with_actuator(**{"wire.hysteron_width_pairing": "narrow-cold"})
 
 

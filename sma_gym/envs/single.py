@@ -315,7 +315,7 @@ class SMATrackingEnv(SMAEnv):
             A Flexinol-type NiTi wire pulls against a bias spring (the report's MigaOne
             actuator: 0.3 mm wire, 10 V supply, 500 Hz PWM, natural convection). PWM current
             heats it, it transforms from martensite to austenite and contracts; convection
-            cools it and the spring stretches it back through a 15 K hysteresis. The agent
+            cools it and the spring stretches it back through a 7-8 K hysteresis. The agent
             chooses the duty each control step so that the position follows a reference
             (steps, ramps, sines, smooth random profiles), seeing the measured position, the
             wire resistance, the reference with its rate and a preview, and its last duty.

@@ -6,9 +6,10 @@
 The wire keeps its volume, so when it shortens to L its cross-section grows to
 A0 l0 / L: both effects lower R (about -8 % over the full 4 % stroke). The rest of the
 measured drop (3.75 -> 3.25 ohm near 7 mm, §4.2) comes from the loaded martensite's higher
-resistivity. Because the heating branch runs 15 K hotter than the cooling branch at the
-same martensite fraction and the phases have different temperature coefficients, heating
-and cooling give different R(x) slopes, as in fig. 4.9.
+resistivity. Because the heating branch runs hotter than the cooling branch at the same
+martensite fraction (7-8 K in the nominal wire, docs/model.md §3) and the phases have
+different temperature coefficients, heating and cooling give different R(x) slopes, as in
+fig. 4.9.
 """
 
 from __future__ import annotations
