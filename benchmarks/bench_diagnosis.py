@@ -51,6 +51,21 @@ that was not hidden.
     python benchmarks/bench_diagnosis.py --grid 24 [--seed 0] [--generator both]
         [--max-rounds 3] [--budget-min 50] [--json] [--out grid.md]
 
+``--datasheet N`` runs N clean cases of an actuator that differs from its datasheet where
+the nominal refit cannot follow (the refit fits the convection, the transformation
+temperatures, the strain and the resistivity; ``sma-gym synth`` perturbs those, and the
+grid's clean cases with them): the wire's specific heat (within 8 %), the spring's
+stiffness (10 %), the transformation branches' temperature ranges (10 %), the ambient
+temperature (3 K), the martensite's Young's modulus (10 %) or the wire's diameter (3 %), each
+at -1, -0.5, +0.5 or +1 times that tolerance, on top of the 5 % perturbation, with the
+grid's excitations, sample rates and sensor sets. No library effect is hidden, so "none"
+is right (the refit absorbs it), "unexplained" and "ambiguous" are honest, and an
+"effect"/"effects" verdict is a confident wrong name: a datasheet tolerance blamed on an
+effect.
+
+    python benchmarks/bench_diagnosis.py --datasheet 24 [--seed 0] [--max-rounds 3]
+        [--budget-min 50] [--json] [--out datasheet.md]
+
 ``--real [FOLDER]`` times the four-run diagnosis of the real bench (issue 12's speed goal:
 at most 5 minutes on 2 cores with nothing else running): ``sma-gym diagnose`` on the four
 shared runs from the datasheet preset, as ``python -m sma_gym.calibration twin`` runs it.
@@ -589,6 +604,220 @@ def run_grid(
 
 
 # ------------------------------------------------------------------------------------------
+# --datasheet: clean data off the datasheet where the refit cannot follow
+# ------------------------------------------------------------------------------------------
+
+DATASHEET_TOLERANCES: dict[str, float] = {
+    "specific_heat": 0.08,  # relative; NiTi's c_p is quoted from 470 to 840 J/(kg K)
+    "spring_stiffness": 0.10,  # relative; a stock compression spring's rate tolerance
+    "branch_ranges": 0.10,  # relative; A_f - A_s and M_s - M_f, the branches' widths
+    "ambient": 3.0,  # K; a laboratory away from the nominal 20 degC
+    "martensite_modulus": 0.10,  # relative; D_M is quoted from 28 to 41 GPa
+    "diameter": 0.03,  # relative; a drawn wire's diameter tolerance
+}
+"""Datasheet errors of ``--datasheet`` and the tolerance each is drawn at (times a size)."""
+
+DATASHEET_SIZES = (-1.0, -0.5, 0.5, 1.0)
+"""Multiples of the tolerance a ``--datasheet`` case's error takes."""
+
+
+def off_datasheet(model: ModelConfig, error: str, size: float) -> ModelConfig:
+    """``model`` with one datasheet value off by ``size`` times its tolerance."""
+    if error not in DATASHEET_TOLERANCES:
+        raise ValueError(f"datasheet error = {error!r}: expected one of {tuple(DATASHEET_TOLERANCES)}")
+    a = model.actuator
+    w = a.wire
+    off = size * DATASHEET_TOLERANCES[error]
+    if error == "specific_heat":
+        changes = {"wire.specific_heat_j_kg_k": w.specific_heat_j_kg_k * (1.0 + off)}
+    elif error == "spring_stiffness":
+        changes = {"mechanism.spring_stiffness_n_m": a.mechanism.spring_stiffness_n_m * (1.0 + off)}
+    elif error == "branch_ranges":
+        # Each branch widens (or narrows) about its centre, so the loop stays where it was.
+        heat = 0.5 * off * (w.austenite_finish_c - w.austenite_start_c)
+        cool = 0.5 * off * (w.martensite_start_c - w.martensite_finish_c)
+        changes = {
+            "wire.austenite_start_c": w.austenite_start_c - heat,
+            "wire.austenite_finish_c": w.austenite_finish_c + heat,
+            "wire.martensite_finish_c": w.martensite_finish_c - cool,
+            "wire.martensite_start_c": w.martensite_start_c + cool,
+        }
+    elif error == "ambient":
+        changes = {"convection.ambient_temperature_c": a.convection.ambient_temperature_c + off}
+    elif error == "martensite_modulus":
+        changes = {"wire.youngs_modulus_martensite_pa": w.youngs_modulus_martensite_pa * (1.0 + off)}
+    else:
+        changes = {"wire.diameter_m": w.diameter_m * (1.0 + off)}
+    return model.with_actuator(**changes)
+
+
+@dataclass(frozen=True)
+class DatasheetCase:
+    """One clean case of ``--datasheet``: which value is off, by how much, and the data's settings."""
+
+    index: int
+    error: str
+    size: float
+    fit_excitation: str
+    heldout_excitation: str
+    sample_rate_hz: int
+    sensors: str
+    seed: int
+
+
+def draw_datasheet(n: int, seed: int = 0) -> list[DatasheetCase]:
+    """The first ``n`` cases for ``seed``: every factor in shuffled complete blocks, as the grid."""
+    if n < 1:
+        raise ValueError(f"datasheet cases = {n!r}: expected at least 1 case")
+
+    def stream(factor: int, levels: Sequence[Any]) -> list[Any]:
+        # Key 2: the grid's generators use 0 and 1, so no stream is shared with theirs.
+        return _blocked(levels, n, np.random.default_rng([seed, 2, factor]))
+
+    errors = stream(_TRUTH, tuple(DATASHEET_TOLERANCES))
+    sizes = stream(_SIZE, DATASHEET_SIZES)
+    fits = stream(_FIT_EXCITATION, EXCITATIONS)
+    shifts = stream(_HELDOUT_SHIFT, range(1, len(EXCITATIONS)))
+    sampling = stream(_SAMPLING, SAMPLING)
+    seeds = np.random.default_rng([seed, 2, _DATA_SEED]).integers(0, 2**31, size=n)
+    return [
+        DatasheetCase(
+            index=i,
+            error=errors[i],
+            size=float(sizes[i]),
+            fit_excitation=fits[i],
+            heldout_excitation=EXCITATIONS[(EXCITATIONS.index(fits[i]) + shifts[i]) % len(EXCITATIONS)],
+            sample_rate_hz=int(sampling[i][0]),
+            sensors=sampling[i][1],
+            seed=int(seeds[i]),
+        )
+        for i in range(n)
+    ]
+
+
+def classify_clean(verdict: str) -> str:
+    """A clean case's answer: right ("none"), honest ("unexplained", "ambiguous": no name
+    given with confidence) or a confident wrong name ("effect", "effects")."""
+    if verdict == "none":
+        return "right"
+    if verdict in ("effect", "effects"):
+        return "confident_wrong"
+    return verdict
+
+
+def run_datasheet(
+    n: int, seed: int = 0, max_rounds: int = DEFAULT_MAX_ROUNDS, budget_s: float = math.inf
+) -> dict[str, Any]:
+    """Run the ``--datasheet`` cases (one line per case on stderr) and summarise them."""
+    nominal = ModelConfig()
+    started = time.perf_counter()
+    records: list[dict[str, Any]] = []
+    for case in draw_datasheet(n, seed):
+        if time.perf_counter() - started > budget_s:
+            print(f"budget of {budget_s / 60:.0f} min spent: {len(records)} of {n} cases run", file=sys.stderr)
+            break
+        truth = off_datasheet(nominal, case.error, case.size)
+
+        def trace(excitation: str, duration_s: float, case: DatasheetCase = case, truth: ModelConfig = truth):
+            spec = SynthSpec(
+                truth,
+                excitation=excitation,
+                duration_s=duration_s,
+                perturb=PERTURB,
+                sample_period_s=1.0 / case.sample_rate_hz,
+                electrical=case.sensors == "all",
+                seed=case.seed,
+            )
+            return generate(spec)[0]
+
+        t0 = time.perf_counter()
+        result = diagnose(
+            [trace(case.fit_excitation, FIT_DURATION_S)],
+            [trace(case.heldout_excitation, HELDOUT_DURATION_S)],
+            nominal,
+            max_rounds=max_rounds,
+        )
+        named = list(result.effects_found) if result.verdict in ("effect", "effects") else []
+        if result.verdict == "ambiguous":
+            named = list(result.effect)
+        first = result.rounds[0] if result.rounds else {}
+        record = asdict(case) | {
+            "verdict": result.verdict,
+            "named": named,
+            "category": classify_clean(result.verdict),
+            "heldout_nominal_refit": first.get("nominal_refit_heldout_normalised_rms"),
+            "heldout_final": final_heldout(result),
+            "parameters_at_bounds": first.get("parameters_at_bounds", []),
+            "seconds": time.perf_counter() - t0,
+        }
+        records.append(record)
+        print(
+            f"[{(time.perf_counter() - started) / 60:5.1f} min] case {case.index:3d} {case.error:18s} x{case.size:+.1f} "
+            f"{case.fit_excitation:>6s}->{case.heldout_excitation:<6s} {case.sample_rate_hz:4d} Hz {case.sensors:8s} "
+            f"-> {result.verdict} {'|'.join(named)} [{record['category']}] refit "
+            f"{record['heldout_nominal_refit'] or math.nan:.2f} ({record['seconds']:.0f} s)",
+            file=sys.stderr,
+            flush=True,
+        )
+    counts = Counter(r["category"] for r in records)
+    wrong = counts.get("confident_wrong", 0)
+    return {
+        "settings": {
+            "datasheet": n,
+            "seed": seed,
+            "max_rounds": max_rounds,
+            "tolerances": DATASHEET_TOLERANCES,
+            "sizes": list(DATASHEET_SIZES),
+            "perturb": PERTURB,
+            "cases_run": len(records),
+            "wall_seconds": time.perf_counter() - started,
+            "source": _source_state(),
+        },
+        "summary": {
+            "cases": len(records),
+            "categories": dict(counts),
+            "confident_wrong_rate": _fraction(wrong, len(records)),
+            "confident_wrong_interval": wilson(wrong, len(records)),
+            "by_error": {
+                e: dict(Counter(r["category"] for r in records if r["error"] == e)) for e in DATASHEET_TOLERANCES
+            },
+            "names_given": dict(
+                Counter(name for r in records if r["category"] == "confident_wrong" for name in r["named"])
+            ),
+        },
+        "cases": records,
+    }
+
+
+def datasheet_markdown(result: dict[str, Any]) -> str:
+    """The ``--datasheet`` run as markdown: one row per case, then the summary."""
+    s = result["summary"]
+    lines = [
+        "# Clean data off the datasheet (bench_diagnosis.py --datasheet)",
+        "",
+        f"seed {result['settings']['seed']}, {s['cases']} cases, max rounds {result['settings']['max_rounds']}",
+        "",
+        "| case | datasheet error | size | fit -> held out | rate | sensors | verdict | named | refit | final |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in result["cases"]:
+        lines.append(
+            f"| {r['index']} | {r['error']} | {r['size']:+.1f} | {r['fit_excitation']} -> {r['heldout_excitation']} | "
+            f"{r['sample_rate_hz']} Hz | {r['sensors']} | {r['verdict']} | {', '.join(r['named']) or '-'} | "
+            f"{r['heldout_nominal_refit'] or math.nan:.2f} | {r['heldout_final'] or math.nan:.2f} |"
+        )
+    counts = ", ".join(f"{k} {v}" for k, v in sorted(s["categories"].items()))
+    lines += [
+        "",
+        f"Answers: {counts}. Confident wrong names: {_pct(s['confident_wrong_rate'])} "
+        f"{_interval(s['confident_wrong_interval'])} (names given: "
+        + (", ".join(f"{k} {v}" for k, v in s["names_given"].items()) or "none")
+        + ").",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------------------------------------------
 # --pairs: two effects hidden at once (issue 12)
 # ------------------------------------------------------------------------------------------
 
@@ -987,6 +1216,13 @@ def main() -> int:
     parser.add_argument(
         "--cases", default=None, metavar="I,J,...", help="pairs: run only these case indices of the N drawn"
     )
+    parser.add_argument(
+        "--datasheet",
+        type=int,
+        default=0,
+        metavar="N",
+        help="run N clean cases of an actuator off its datasheet where the refit cannot follow instead",
+    )
     parser.add_argument("--out", type=Path, help="grid / pairs: write the report as markdown to this file")
     parser.add_argument(
         "--merge", type=Path, nargs="+", metavar="JSON", help="report on saved --grid --json runs together, run nothing"
@@ -1027,6 +1263,14 @@ def main() -> int:
                 parser.error(f"--cases {args.cases!r}: expected case indices from 0 to {args.pairs - 1}")
         result = run_pairs(args.pairs, args.seed, args.max_rounds, args.budget_min * 60.0, only)
         markdown = pairs_markdown(result)
+        if args.out is not None:
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            args.out.write_text(markdown)
+        print(json.dumps(result, indent=2) if args.json else markdown)
+        return 0
+    if args.datasheet:
+        result = run_datasheet(args.datasheet, args.seed, args.max_rounds, args.budget_min * 60.0)
+        markdown = datasheet_markdown(result)
         if args.out is not None:
             args.out.parent.mkdir(parents=True, exist_ok=True)
             args.out.write_text(markdown)

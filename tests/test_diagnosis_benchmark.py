@@ -147,3 +147,50 @@ def test_final_heldout_is_the_last_rounds_model(bench: ModuleType) -> None:
     assert bench.final_heldout(SimpleNamespace(rounds=[])) is None
     assert bench.final_heldout(SimpleNamespace(rounds=[rnd("unexplained", 13.1)])) == 13.1
     assert bench.final_heldout(SimpleNamespace(rounds=[rnd("effect", 9.0), rnd("none", 4.0)])) == 4.0
+
+
+def test_datasheet_cases_are_balanced_reproducible_and_never_hide_an_effect(bench: ModuleType) -> None:
+    """``--datasheet``: every datasheet error, size and sampling in complete blocks, the draw a
+    prefix of any larger one, and a held-out excitation other than the fitted one."""
+    cases = bench.draw_datasheet(24, seed=3)
+    assert cases[:12] == bench.draw_datasheet(12, seed=3)
+    assert cases != bench.draw_datasheet(24, seed=4)
+    for field, levels in (
+        ("error", tuple(bench.DATASHEET_TOLERANCES)),
+        ("size", bench.DATASHEET_SIZES),
+        ("fit_excitation", bench.EXCITATIONS),
+    ):
+        counts = Counter(getattr(c, field) for c in cases)
+        assert set(counts) <= set(levels)
+        assert max(counts.values()) - min(counts[level] for level in levels) <= 1
+    assert all(c.heldout_excitation != c.fit_excitation for c in cases)
+
+
+def test_off_datasheet_changes_one_value_by_its_tolerance(bench: ModuleType) -> None:
+    from sma_gym.model import ModelConfig
+
+    nominal = ModelConfig()
+    a = nominal.actuator
+    heat = bench.off_datasheet(nominal, "specific_heat", -0.5).actuator
+    assert heat.wire.specific_heat_j_kg_k == pytest.approx(a.wire.specific_heat_j_kg_k * 0.96)
+    assert heat.with_changes(**{"wire.specific_heat_j_kg_k": a.wire.specific_heat_j_kg_k}) == a
+    branches = bench.off_datasheet(nominal, "branch_ranges", 1.0).actuator.wire
+    assert branches.austenite_finish_c - branches.austenite_start_c == pytest.approx(
+        1.1 * (a.wire.austenite_finish_c - a.wire.austenite_start_c)
+    )
+    # The branches widen about their centres: the 15 K loop stays.
+    assert branches.austenite_start_c - branches.martensite_finish_c == pytest.approx(
+        a.wire.austenite_start_c - a.wire.martensite_finish_c
+    )
+    assert bench.off_datasheet(nominal, "ambient", 1.0).actuator.convection.ambient_temperature_c == pytest.approx(
+        a.convection.ambient_temperature_c + 3.0
+    )
+    with pytest.raises(ValueError, match="datasheet error = 'colour'"):
+        bench.off_datasheet(nominal, "colour", 1.0)
+    assert [bench.classify_clean(v) for v in ("none", "unexplained", "ambiguous", "effect", "effects")] == [
+        "right",
+        "unexplained",
+        "ambiguous",
+        "confident_wrong",
+        "confident_wrong",
+    ]
