@@ -351,6 +351,15 @@ def classify(truth: str, verdict: str, named: Sequence[str]) -> str:
     return "miss"
 
 
+def named_effects(result: Diagnosis) -> list[str]:
+    """The effects a verdict names: those found for effect(s), the rivals for ambiguous, else none."""
+    if result.verdict in ("effect", "effects"):
+        return list(result.effects_found)
+    if result.verdict == "ambiguous":
+        return list(result.effect)
+    return []
+
+
 def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str, Any]:
     """Generate, diagnose and score one grid case; an exception is recorded, not raised."""
     record: dict[str, Any] = asdict(case) | {"effect_values": case.effect_values()}
@@ -370,12 +379,7 @@ def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str,
         )
         return record
     t2 = time.perf_counter()
-    if result.verdict in ("effect", "effects"):
-        named = list(result.effects_found)
-    elif result.verdict == "ambiguous":
-        named = list(result.effect)
-    else:
-        named = []
+    named = named_effects(result)
     first = result.rounds[0] if result.rounds else {}
     record.update(
         answer=answer_label(result),
@@ -737,9 +741,7 @@ def run_datasheet(
             nominal,
             max_rounds=max_rounds,
         )
-        named = list(result.effects_found) if result.verdict in ("effect", "effects") else []
-        if result.verdict == "ambiguous":
-            named = list(result.effect)
+        named = named_effects(result)
         first = result.rounds[0] if result.rounds else {}
         record = asdict(case) | {
             "verdict": result.verdict,
@@ -933,9 +935,7 @@ def run_pairs(
         except Exception as exc:
             record.update(answer=f"error: {type(exc).__name__}: {exc}", category="miss", named=[], seconds=0.0)
         else:
-            named = list(result.effects_found) if result.verdict in ("effect", "effects") else []
-            if result.verdict == "ambiguous":
-                named = list(result.effect)
+            named = named_effects(result)
             record.update(
                 answer=answer_label(result),
                 verdict=result.verdict,

@@ -1225,7 +1225,7 @@ def _decimated(trace: MeasuredTrace, control_period_s: float, say: Callable[[str
     return replace(
         trace,
         t=kept,
-        duty=trace.mean_duty(kept, np.r_[kept[1:], trace.t[-1]]) if len(kept) > 1 else trace.duty[pick],
+        duty=trace.mean_duty(kept, np.r_[kept[1:], trace.t[-1]]),
         position=trace.position[pick],
         **{
             name: None if getattr(trace, name) is None else getattr(trace, name)[pick]
