@@ -467,6 +467,7 @@ def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
             "clean_accuracy": _fraction(sum(r["category"] == "right" for r in clean), len(clean)),
             "confident_wrong_rate": _fraction(cats["confident_wrong"], len(rs)),
             "by_factor": _by_factor(rs),
+            "detection": _detection(rs),
         }
     clean = [r for r in records if r["truth"] == "none"]
     named = [r for r in clean if r["verdict"] in ("effect", "effects", "ambiguous")]
@@ -509,6 +510,41 @@ def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     }
     summary["goals"] = _goals(summary)
     return summary
+
+
+def _truth_in_first_round(record: dict[str, Any]) -> dict[str, Any] | None:
+    """The hidden effect's own candidate in round 1 (where every candidate is fitted on the
+    same nominal refit): was it supported, inert, and the best held out of all candidates?
+    None for clean data or a case without candidates."""
+    rounds = record.get("round_candidates") or []
+    if record["truth"] == "none" or not rounds:
+        return None
+    first = rounds[0]
+    effects = [c for c in first if c["name"] in EFFECTS]
+    own = next((c for c in effects if c["name"] == record["truth"]), None)
+    if own is None:
+        return None
+    scores = [c["heldout_normalised_rms"] for c in effects if c.get("heldout_normalised_rms") is not None]
+    return {
+        "supported": bool(own["supported"]),
+        "inert": bool(own["inert"]),
+        "best_heldout": own.get("heldout_normalised_rms") is not None and own["heldout_normalised_rms"] <= min(scores),
+    }
+
+
+def _detection(rs: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """What the data allow, apart from the verdict rules: how often the hidden effect's own
+    fit passed the bars in round 1 or was the best held out, and how far the clean data's
+    nominal refit stays from the noise (the model-form floor a generator leaves)."""
+    own = [x for x in (_truth_in_first_round(r) for r in rs) if x is not None]
+    floors = [r["heldout_nominal_refit"] for r in rs if r["truth"] == "none" and r.get("heldout_nominal_refit")]
+    return {
+        "truth_round1_cases": len(own),
+        "truth_supported_round1": sum(x["supported"] for x in own),
+        "truth_best_heldout_round1": sum(x["best_heldout"] for x in own),
+        "truth_inert_round1": sum(x["inert"] for x in own),
+        "clean_refit_floor_median": statistics.median(floors) if floors else None,
+    }
 
 
 def _by_factor(rs: Sequence[dict[str, Any]]) -> dict[str, dict[str, str]]:
@@ -1123,6 +1159,19 @@ def grid_markdown(result: dict[str, Any]) -> str:
         ]
         for truth, row in pg["confusion"].items():
             lines.append(f"| {truth} | " + " | ".join(str(row.get(a, 0)) if row.get(a) else "." for a in labels) + " |")
+        det = pg.get("detection")
+        if det and det["truth_round1_cases"]:
+            floor = det["clean_refit_floor_median"]
+            lines += [
+                "",
+                (
+                    f"What the data allow (round 1, apart from the verdict rules): the hidden effect's own fit passed "
+                    f"the bars in {det['truth_supported_round1']} of {det['truth_round1_cases']} cases, was the best held "
+                    f"out in {det['truth_best_heldout_round1']}, ended inert in {det['truth_inert_round1']}; the clean "
+                    f"data's nominal refit held out at a median "
+                    f"{'-' if floor is None else f'{floor:.1f}x'} the noise (the generator's model-form floor)."
+                ),
+            ]
         lines += ["", "| factor | right / cases per level |", "|---|---|"]
         for factor, levels in pg["by_factor"].items():
             lines.append(f"| {factor} | " + ", ".join(f"{k}: {v}" for k, v in levels.items()) + " |")

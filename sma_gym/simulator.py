@@ -160,6 +160,8 @@ def pack_params(
         L.MAX_SPREAD_NODES,
         min(w.austenite_finish_c - w.austenite_start_c, w.martensite_start_c - w.martensite_finish_c),
         w.hysteron_width_pairing,
+        fx.value("minor_loop_width", "min_width_share"),
+        fx.form("minor_loop_width"),
     )
     # A spread wide for the branch range widens every branch (loop widths unchanged).
     row[L.P_A_S] = w.austenite_start_c - 0.5 * widening_k

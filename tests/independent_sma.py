@@ -21,6 +21,9 @@ stress                    integrated closed form sigma(x, T, xi)    rate form (r
 minor loops               Preisach sum of play operators (hysterons) one xi with the continuity-fixed rescaled-
                           spread in centre and width                cosine (proportional) law, reversal memory
                                                                     (mode, xi_r, scale q/p), 0.02 K switch band
+wider minor loops         no hysteron narrower than a share of the  a dead band after every reversal: xi holds
+                          mean width (a floor on the widths)        for min_width_share x 7.5 K, then the
+                                                                    proportional law from where it stands
 transformation spread     Gaussian spread of hysteron centres       the branch itself is smoothed: mean of the
                                                                     cosine branch over *logistic* quantile shifts
 sigma/xi algebraic loop   inside the implicit step                  closed-form solve in every RHS evaluation
@@ -70,6 +73,7 @@ INDEPENDENT_EFFECTS: dict[str, dict[str, float]] = {
     "latent_heat": {"change_j_kg": -12000.0},
     "transformation_spread": {"spread_k": 6.0},
     "abbe_offset": {"offset_m": 0.3e-3},
+    "minor_loop_width": {"min_width_share": 0.6},
 }
 
 EXCITATIONS = ("steps", "ramps", "sine", "chirp", "random")
@@ -91,6 +95,11 @@ ABBE_TURN_M = 50e-6
 """Half the travel over which the actuator's tilt (and so the Abbe error) turns over [m]."""
 SPREAD_NODES = 16
 """Quantile nodes of the logistic temperature spread that smooth the cosine branches."""
+DEAD_BAND_FULL_K = 7.5
+"""Dead band after a reversal [K] at min_width_share = 1: the mean loop width of our
+kernel's nominal hysterons (15 K x (1 - 1/2)), read off the parameter docstrings, so that
+the same share means a comparable delay; the form (a band, then the proportional law) is
+our own."""
 
 # State vector of the ODE (indices).
 X, V, TEMP, SIGMA, XI, FILT, LAG, ABBE, E_EL, E_CONV, E_LAT, W_MECH = range(12)
@@ -138,8 +147,9 @@ N_Y = 12
     P_PWM_PERIOD,
     P_SETTLE,
     P_ALPHA_M,
-) = range(40)
-N_P = 40
+    P_DEAD_BAND,
+) = range(41)
+N_P = 41
 
 
 @dataclass(frozen=True)
@@ -210,6 +220,7 @@ def pack(
     p[P_FC] = values["force_n"] if effect == "coulomb_friction" else 0.0
     p[P_PWM_PERIOD] = 1.0 / d.pwm_frequency_hz
     p[P_SETTLE] = d.settling_time_s
+    p[P_DEAD_BAND] = DEAD_BAND_FULL_K * values["min_width_share"] if effect == "minor_loop_width" else 0.0
     for name, index in (("sensor filter", P_TAU_F), ("sensor_lag", P_TAU_LAG)):
         if 0.0 < p[index] < 4.0 * INTEGRATOR_STEP_S:
             raise ValueError(f"{name} time constant {p[index]:g} s is below 4 RK4 steps; too fast to integrate")
@@ -377,6 +388,12 @@ def _run(
     heating = False
     scale = 0.0  # cooling from xi = 1: 1 - xi = 0 * (1 - G_c), nothing moves
     extreme = y[TEMP] - y[SIGMA] / p[P_CM]
+    # Dead band after a reversal (minor_loop_width): xi holds while the effective temperature
+    # has come back less than the band from the reversal point (hold_dir +1: after a top
+    # reversal, waiting to cool; -1: after a bottom one, waiting to heat).
+    dead_band = p[P_DEAD_BAND]
+    hold_dir = 0
+    hold_ref = 0.0
     cut = False
     reading = 0.5 * p[P_ABBE] * y[ABBE]
     duty = 0.0
@@ -389,16 +406,17 @@ def _run(
         power_sum = 0.0
         for _ in range(substeps):
             applied = 0.0 if cut else duty
-            rhs(y, applied, heating, scale, p, nodes, k1)
+            scale_now = 0.0 if hold_dir != 0 else scale  # a zero branch slope: xi holds
+            rhs(y, applied, heating, scale_now, p, nodes, k1)
             for i in range(N_Y):
                 tmp[i] = y[i] + 0.5 * h * k1[i]
-            rhs(tmp, applied, heating, scale, p, nodes, k2)
+            rhs(tmp, applied, heating, scale_now, p, nodes, k2)
             for i in range(N_Y):
                 tmp[i] = y[i] + 0.5 * h * k2[i]
-            rhs(tmp, applied, heating, scale, p, nodes, k3)
+            rhs(tmp, applied, heating, scale_now, p, nodes, k3)
             for i in range(N_Y):
                 tmp[i] = y[i] + h * k3[i]
-            rhs(tmp, applied, heating, scale, p, nodes, k4)
+            rhs(tmp, applied, heating, scale_now, p, nodes, k4)
             for i in range(N_Y):
                 y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             power_sum += (k1[E_EL] + 2.0 * k2[E_EL] + 2.0 * k3[E_EL] + k4[E_EL]) / 6.0
@@ -406,10 +424,29 @@ def _run(
             y[XI] = min(1.0, max(0.0, y[XI]))
             y[ABBE] = min(1.0, max(-1.0, y[ABBE]))
             # Branch switching on the effective temperature, with a small band against chatter.
-            if heating:
+            if hold_dir != 0:
+                t_h = y[TEMP] - y[SIGMA] / p[P_CA]
+                t_c = y[TEMP] - y[SIGMA] / p[P_CM]
+                if (hold_dir > 0 and t_c < hold_ref - dead_band) or (hold_dir < 0 and t_c < hold_ref):
+                    # Through the band (or back below a bottom reversal): cooling from here.
+                    hold_dir = 0
+                    heating = False
+                    g, _ = branch(t_c, p[P_MF], p[P_MS] - p[P_MF], nodes)
+                    scale = (1.0 - y[XI]) / max(1.0 - g, 1e-9)
+                    extreme = t_c
+                elif (hold_dir < 0 and t_h > hold_ref + dead_band) or (hold_dir > 0 and t_h > hold_ref):
+                    hold_dir = 0
+                    heating = True
+                    g, _ = branch(t_h, p[P_AS], p[P_AF] - p[P_AS], nodes)
+                    scale = y[XI] / max(g, 1e-9)
+                    extreme = t_h
+            elif heating:
                 t_eff = y[TEMP] - y[SIGMA] / p[P_CA]
                 extreme = max(extreme, t_eff)
-                if t_eff < extreme - SWITCH_BAND_K:
+                if t_eff < extreme - SWITCH_BAND_K and dead_band > 0.0:
+                    hold_dir = 1
+                    hold_ref = extreme
+                elif t_eff < extreme - SWITCH_BAND_K:
                     heating = False
                     t_c = y[TEMP] - y[SIGMA] / p[P_CM]
                     g, _ = branch(t_c, p[P_MF], p[P_MS] - p[P_MF], nodes)
@@ -419,7 +456,10 @@ def _run(
             else:
                 t_eff = y[TEMP] - y[SIGMA] / p[P_CM]
                 extreme = min(extreme, t_eff)
-                if t_eff > extreme + SWITCH_BAND_K:
+                if t_eff > extreme + SWITCH_BAND_K and dead_band > 0.0:
+                    hold_dir = -1
+                    hold_ref = extreme
+                elif t_eff > extreme + SWITCH_BAND_K:
                     heating = True
                     t_h = y[TEMP] - y[SIGMA] / p[P_CA]
                     g, _ = branch(t_h, p[P_AS], p[P_AF] - p[P_AS], nodes)

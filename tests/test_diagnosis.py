@@ -98,26 +98,33 @@ def test_two_hidden_effects_are_both_named_and_nothing_more():
     """Sensor lag (second-order form) and Stribeck friction hidden together, nominal
     perturbed by 5 %. Round 1 alone is ambiguous: an Abbe offset mimics the friction held
     out best, and the lag, by far the best on the fitted data, predicts worse alone. The
-    round pairs the lag with each rival, names the lag with the friction jointly, and round
-    2 moves the lag to its second-order form and finds nothing else supported. (Until
+    round pairs the lag with each rival and names it jointly with one of the look-alikes
+    that hold the sleigh after a reversal. Since 2026-12-02 that is ``minor_loop_width``
+    (lag + width 9.5x the noise held out against lag + friction's 12.6x on this draw; until
+    then the friction itself); round 2 then adds the friction (held out 9.4x -> 4.1x), and
+    the pruning takes the width out again (keeping it gains -0.4 % held out). The answer is
+    the two hidden effects and nothing more, the lag in its second-order form. (Until
     2026-11-28 only the held-out best was paired beyond the first three rivals, and this
-    case, on the kernel whose Stribeck slips are resolved, ended ambiguous in round 1.)"""
+    case ended ambiguous in round 1.)"""
     truth = ModelConfig().with_effect("sensor_lag", {"time_constant_s": 0.05}, "second-order")
     trace = two_effects(truth, "coulomb_friction", "stribeck", seed=7)
     result = diagnose([trace("steps", FIT_SECONDS)], [trace("sine", HELD_SECONDS)], ModelConfig())
     assert result.verdict == "effects"
     assert sorted(result.effects_found) == ["coulomb_friction", "sensor_lag"]
     first = result.rounds[0]
-    assert first["verdict"] == "effects" and sorted(first["effect"]) == ["coulomb_friction", "sensor_lag"]
+    assert first["verdict"] == "effects" and "sensor_lag" in first["effect"]
     # The joint pair, not one of its members, beat the round's single candidates.
     singles = {c["name"]: c for c in first["candidates"]}
     assert singles["abbe_offset"]["supported"] and not singles["sensor_lag"]["supported"]
-    assert all(r["verdict"] not in ("effect", "effects") for r in result.rounds[1:])
+    # Whatever a round added that is not hidden was taken out again by the pruning.
+    named = {e for r in result.rounds for e in ([r["effect"]] if isinstance(r["effect"], str) else r["effect"] or [])}
+    removed = {x["effect"] for r in result.rounds for x in r.get("removed") or []}
+    assert named - {"coulomb_friction", "sensor_lag"} <= removed
     active = {s.name: s for s in result.corrected_model.effects.active()}
     assert set(active) == {"coulomb_friction", "sensor_lag"}
     assert active["sensor_lag"].form == "second-order"
     held = [r["heldout_normalised_rms"] for r in result.rounds]
-    assert held[0] < 0.25 * first["nominal_refit_heldout_normalised_rms"]
+    assert held[-1] < 0.25 * first["nominal_refit_heldout_normalised_rms"]
     assert result.gap_after["heldout"]["position"] < 0.2 * result.gap_before["heldout"]["position"]
 
 

@@ -156,6 +156,37 @@ def test_final_heldout_is_the_last_rounds_model(bench: ModuleType) -> None:
     assert bench.final_heldout(SimpleNamespace(rounds=[rnd("effect", 9.0), rnd("none", 4.0)])) == 4.0
 
 
+def test_what_the_data_allow_reads_the_hidden_effects_own_round_1_candidate(bench: ModuleType) -> None:
+    """The grid reports, apart from the verdict rules, whether the truth's own round-1 fit
+    passed the bars or was the best held out, and the clean data's refit floor."""
+
+    def cand(name: str, held: float, supported: bool = False, inert: bool = False) -> dict:
+        return {"name": name, "heldout_normalised_rms": held, "supported": supported, "inert": inert}
+
+    refit = cand("nominal refit", 9.0)
+    records = [
+        {"truth": "sensor_lag", "round_candidates": [[refit, cand("sensor_lag", 2.0, True), cand("abbe_offset", 3.0)]]},
+        {
+            "truth": "abbe_offset",
+            "round_candidates": [[refit, cand("sensor_lag", 2.0, True), cand("abbe_offset", 3.0)]],
+        },
+        {"truth": "latent_heat", "round_candidates": [[refit, cand("latent_heat", 9.0, inert=True)]]},
+        {"truth": "supply_sag", "round_candidates": []},  # an error: no candidates
+        {"truth": "none", "heldout_nominal_refit": 40.0, "round_candidates": [[refit]]},
+        {"truth": "none", "heldout_nominal_refit": 60.0, "round_candidates": [[refit]]},
+    ]
+    assert bench._truth_in_first_round(records[0]) == {"supported": True, "inert": False, "best_heldout": True}
+    assert bench._truth_in_first_round(records[1])["best_heldout"] is False
+    assert bench._truth_in_first_round(records[4]) is None
+    assert bench._detection(records) == {
+        "truth_round1_cases": 3,
+        "truth_supported_round1": 1,
+        "truth_best_heldout_round1": 2,
+        "truth_inert_round1": 1,
+        "clean_refit_floor_median": 50.0,
+    }
+
+
 def test_datasheet_cases_are_balanced_reproducible_and_never_hide_an_effect(bench: ModuleType) -> None:
     """``--datasheet``: every datasheet error, size and sampling in complete blocks, the draw a
     prefix of any larger one, and a held-out excitation other than the fitted one."""

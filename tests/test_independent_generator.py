@@ -375,6 +375,7 @@ CHANGES = {
     "supply_sag": (("position", "resistance", "supply_voltage"), ()),
     "latent_heat": (("position", "resistance"), ("supply_voltage",)),
     "transformation_spread": (("position", "resistance"), ("supply_voltage",)),
+    "minor_loop_width": (("position", "resistance"), ("supply_voltage",)),
 }
 #: "Changed" means an RMS change of at least three times the noise of a synthetic trace
 #: (over thousands of samples that is far above what noise alone can do).
@@ -392,7 +393,7 @@ def test_each_effect_changes_the_outputs_it_should(effect: str, clean_trace) -> 
     noise of a synthetic trace (5 um position, 2 mOhm resistance); a sensor effect leaves the
     electrical readings exactly as they were. Measured RMS changes [um / mOhm]: lag 26/0,
     Abbe 144/0, convection x1.6 1213/97, Coulomb 0.6 N 45/3.2, sag 1 ohm 1221/96,
-    latent -12 J/g 285/23, spread +6 K 248/21."""
+    latent -12 J/g 285/23, spread +6 K 248/21, minor-loop width share 0.6 170/15."""
     trace, labels = ind.generate(
         STANDARD,
         duty=_effect_duty(),

@@ -248,6 +248,62 @@ def test_the_hysterons_span_the_spread_and_keep_heating_above_cooling():
         hysteron_nodes(6.0, 1.0, 15.0, law="duhem")
 
 
+def test_wider_minor_loops_floor_or_draw_the_widths_and_keep_the_centres():
+    """minor_loop_width: 'default' floors every loop at the share of the mean width (the wide
+    ones kept), 'mean' draws every width that share towards the mean (the mean kept); the
+    centres never move, and share 0 is the nominal set exactly."""
+    from sma_gym.physics.transformation import hysteron_nodes
+
+    def centres_and_widths(share: float, form: str) -> tuple[np.ndarray, np.ndarray]:
+        shift_h, shift_c, _, _ = hysteron_nodes(
+            8.0, 1.0, 15.0, branch_range_k=35.0, min_width_share=share, widths_form=form
+        )
+        h, c = np.array(shift_h), np.array(shift_c)
+        return (h + c) / 2, 15.0 - (c - h)
+
+    centres, widths = centres_and_widths(0.0, "default")
+    assert hysteron_nodes(8.0, 1.0, 15.0, branch_range_k=35.0) == hysteron_nodes(
+        8.0, 1.0, 15.0, branch_range_k=35.0, min_width_share=0.0, widths_form="mean"
+    )
+    mean = widths.mean()
+    assert mean == pytest.approx(7.5)
+    c_floor, w_floor = centres_and_widths(0.6, "default")
+    np.testing.assert_allclose(c_floor, centres)
+    np.testing.assert_allclose(w_floor, np.maximum(widths, 0.6 * mean))
+    assert w_floor.min() == pytest.approx(4.5) and w_floor.max() == pytest.approx(widths.max())
+    c_mean, w_mean = centres_and_widths(0.6, "mean")
+    np.testing.assert_allclose(c_mean, centres)
+    np.testing.assert_allclose(w_mean, widths + 0.6 * (mean - widths))
+    assert w_mean.mean() == pytest.approx(mean)
+    np.testing.assert_allclose(centres_and_widths(1.0, "mean")[1], mean)
+    with pytest.raises(ValueError, match="minor-loop width form"):
+        hysteron_nodes(8.0, 1.0, 15.0, widths_form="ceiling")
+    with pytest.raises(ValueError, match="min_width_share"):
+        hysteron_nodes(8.0, 1.0, 15.0, min_width_share=1.5)
+    with pytest.raises(ValueError, match=r"minor_loop_width.min_width_share = 2"):
+        ModelConfig(preset("standard")).with_effect("minor_loop_width", {"min_width_share": 2.0})
+
+
+def test_wider_minor_loops_hold_a_partial_contraction_after_switch_off():
+    """A partial contraction (duty 0.12 for 3 s) switched off: with the narrowest loops wider
+    the wire goes on contracting thermally for longer before it transforms back (peak
+    0.08 s after switch-off nominally, 0.34 s at a share of 0.6, 0.37 s in the mean form),
+    and it still returns."""
+    duty = np.zeros(9000)
+    duty[1000:4000] = 0.12
+
+    def peak_delay_s(model: ModelConfig) -> tuple[float, float]:
+        x = Simulator(model).run(duty, record=("position_m",))["position_m"][:, 0]
+        return (int(np.argmax(x)) - 4000) * 1e-3, float(x[-1])
+
+    nominal = ModelConfig(preset("standard"))
+    base, base_end = peak_delay_s(nominal)
+    wide, wide_end = peak_delay_s(nominal.with_effect("minor_loop_width", {"min_width_share": 0.6}))
+    drawn, _ = peak_delay_s(nominal.with_effect("minor_loop_width", {"min_width_share": 0.6}, "mean"))
+    assert base < 0.15 and wide > base + 0.15 and drawn > base + 0.15
+    assert abs(wide_end - base_end) < 2e-4  # both back home within 0.2 mm
+
+
 @pytest.mark.parametrize("count", [7, 11])
 def test_the_narrow_cold_pairing_gives_the_coldest_hysteron_the_narrowest_loop(count):
     """'narrow-cold': the loop width grows with the centre; 'uncorrelated' keeps the same
@@ -760,7 +816,7 @@ def test_every_declared_effect_form_has_a_meaning_in_the_physics():
     for name, effect in EFFECTS.items():
         if name in tables:
             assert set(effect.forms) == set(tables[name]), name
-        elif name != "transformation_spread":  # its form is passed by name to hysteron_nodes
+        elif name not in ("transformation_spread", "minor_loop_width"):  # forms passed by name to hysteron_nodes
             assert effect.forms == ("default",), f"{name}: forms {effect.forms} need a code table"
 
 

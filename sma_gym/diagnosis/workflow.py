@@ -200,6 +200,18 @@ SEPARATING_EXPERIMENTS = {
     frozenset(
         {"pulse_settling", "convection_change"}
     ): "holding at two PWM frequencies: settling losses change with the frequency, convection does not",
+    frozenset(
+        {"minor_loop_width", "transformation_spread"}
+    ): "partial contractions to several depths, each switched off: wider minor loops hold the wire after the reversal, a spread moves it back at once",
+    frozenset(
+        {"minor_loop_width", "coulomb_friction"}
+    ): "a resistance measurement after a partial contraction: friction holds the sleigh while the wire transforms (R changes), a wide minor loop holds both",
+    frozenset(
+        {"minor_loop_width", "abbe_offset"}
+    ): "a slow triangle wave with resistance measured: an Abbe offset steps the reading at once, a wide minor loop delays position and resistance alike",
+    frozenset(
+        {"minor_loop_width", "sensor_lag"}
+    ): "reversals at several speeds: a lag grows with speed, a wide minor loop holds for the same temperature change at any speed",
 }
 GENERIC_EXPERIMENT = "an excitation that exercises both effects differently: several supply voltages, PWM frequencies and slow and fast motions, with resistance measured"
 

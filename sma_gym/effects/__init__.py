@@ -93,6 +93,31 @@ EFFECTS: dict[str, Effect] = {
             forms=("default", "uniform"),
         ),
         Effect(
+            name="minor_loop_width",
+            title="Wider minor loops",
+            description=(
+                "The wire moves back later after a reversal than the nominal hysterons say: "
+                "its narrowest local loops are wider (a real wire's partial contraction can "
+                "hold for seconds after the power goes off). No hysteron's loop is narrower "
+                "than min_width_share times the hysterons' mean width (the wide ones kept, "
+                "so the major loop widens a little); minor loops inside it widen most "
+                "(§5.6, docs/model.md §3)."
+            ),
+            source="§5.6",
+            parameters=(
+                _p(
+                    "min_width_share",
+                    "-",
+                    0.0,
+                    0.0,
+                    1.0,
+                    0.6,
+                    "narrowest hysteron loop as a share of the mean loop width",
+                ),
+            ),
+            forms=("default", "mean"),
+        ),
+        Effect(
             name="latent_heat",
             title="Latent heat of transformation",
             description=(

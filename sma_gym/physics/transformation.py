@@ -92,6 +92,11 @@ MINOR_LOOP_LAWS = ("preisach", "play")
 WIDTH_PAIRINGS = ("uncorrelated", "narrow-cold")
 """How the hysterons' loop widths are paired with their centres (see :func:`hysteron_nodes`)."""
 
+WIDTH_FORMS = ("default", "mean")
+"""How the ``minor_loop_width`` effect narrows the spread of loop widths (see
+:func:`hysteron_nodes`): ``default`` floors every width at a share of the mean width,
+``mean`` draws every width towards the mean (the major loop unchanged)."""
+
 # "uncorrelated": which width quantile each centre gets, a Latin-hypercube pairing of 7
 # hysterons (rank correlation -0.07), the narrowest hysteron near the middle of the
 # transformation.
@@ -148,6 +153,8 @@ def hysteron_nodes(
     max_nodes: int = 7,
     branch_range_k: float = math.inf,
     pairing: str = "uncorrelated",
+    min_width_share: float = 0.0,
+    widths_form: str = "default",
 ) -> tuple[list[float], list[float], list[float], float]:
     """Hysterons of the transformation: ``(shift_h, shift_c, weights, widening_k)``.
 
@@ -175,11 +182,22 @@ def hysteron_nodes(
     widths A_s - M_f and A_f - M_s are unchanged) so that the transformation keeps the same
     mean and the same variance, the cosine's variance being ``COSINE_VARIANCE`` times its
     range squared. Without spread, or with ranges wide enough (the standard wire), it is 0.
+
+    ``min_width_share`` [-] (the ``minor_loop_width`` effect, 0 = off) makes the narrowest
+    loops wider, so that a wire moves back later after a reversal: with ``widths_form``
+    ``default`` no hysteron is narrower than that share of the hysterons' mean width (a
+    floor; the wide ones are kept, so the major loop widens a little), with ``mean`` every
+    width is drawn that share of the way to the mean (the mean, i.e. the major loop, kept;
+    1 gives every hysteron the mean width). The centres are not moved.
     """
     if law not in MINOR_LOOP_LAWS:
         raise ValueError(f"minor-loop law = {law!r}: expected one of {MINOR_LOOP_LAWS}")
     if pairing not in WIDTH_PAIRINGS:
         raise ValueError(f"hysteron width pairing = {pairing!r}: expected one of {WIDTH_PAIRINGS}")
+    if widths_form not in WIDTH_FORMS:
+        raise ValueError(f"minor-loop width form = {widths_form!r}: expected one of {WIDTH_FORMS}")
+    if not 0.0 <= min_width_share <= 1.0:
+        raise ValueError(f"min_width_share = {min_width_share!r}: expected a share in [0, 1]")
     if spread_k == 0.0 and (law == "play" or width_spread == 0.0):
         return [0.0], [0.0], [1.0], 0.0
     n = max_nodes
@@ -192,11 +210,19 @@ def hysteron_nodes(
     centres, widening_k = _smooth_centres(centres, spread_k, branch_range_k)
     ranks = _width_ranks(n, pairing)
     width = 0.0 if law == "play" else width_spread
+    # Each hysteron's loop is loop_width_k - narrowing wide.
+    narrowings = [width * loop_width_k * (ranks[k] + 0.5) / n for k in range(n)]
+    if min_width_share > 0.0:  # guarded: the effect off leaves the nodes bit for bit
+        mean_narrowing = sum(narrowings) / n
+        if widths_form == "mean":
+            narrowings = [x + min_width_share * (mean_narrowing - x) for x in narrowings]
+        else:
+            most = loop_width_k - min_width_share * (loop_width_k - mean_narrowing)
+            narrowings = [min(x, most) for x in narrowings]
     shift_h, shift_c = [], []
     for k in range(n):
-        narrowing = width * loop_width_k * (ranks[k] + 0.5) / n
-        shift_h.append(centres[k] - 0.5 * narrowing)
-        shift_c.append(centres[k] + 0.5 * narrowing)
+        shift_h.append(centres[k] - 0.5 * narrowings[k])
+        shift_c.append(centres[k] + 0.5 * narrowings[k])
     return shift_h, shift_c, _exact_unit_sum([1.0 / n] * n), widening_k
 
 
