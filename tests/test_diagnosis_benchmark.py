@@ -2,7 +2,8 @@
 
 The grid is only a fair benchmark if its draw is balanced over every factor, reproducible
 from its seed, never holds out the excitation it fitted, and asks the independent generator
-only for effects it can hide. None of this needs a diagnosis to run: these tests only draw.
+only for effects it can hide. None of this needs a diagnosis to run: these tests draw, score
+and, for ``--floor``, fit one model.
 """
 
 from __future__ import annotations
@@ -232,3 +233,27 @@ def test_off_datasheet_changes_one_value_by_its_tolerance(bench: ModuleType) -> 
         "confident_wrong",
         "confident_wrong",
     ]
+
+
+def test_pair_floor_fits_the_truths_own_model_down_to_the_noise(bench: ModuleType) -> None:
+    """``--floor``: the truth's two effects in their hidden forms, fitted with the nominal
+    parameters, reach the noise on data that nothing else perturbs; with another effect in
+    place of the sensor lag they do not."""
+    from sma_gym.diagnosis.synth import SynthSpec, generate
+    from sma_gym.model import ModelConfig
+
+    nominal = ModelConfig()
+    case = bench.PairCase(0, "latent_heat", "sensor_lag", "steps", "sine", seed=3)
+    truth = nominal.with_effect(
+        "latent_heat", {p.name: p.typical for p in EFFECTS["latent_heat"].parameters}, "asymmetric"
+    )
+
+    def trace(excitation: str) -> object:
+        spec = SynthSpec(truth, effect="sensor_lag", form="second-order", excitation=excitation, duration_s=8.0, seed=3)
+        return generate(spec)[0]
+
+    fit, held = trace("steps"), trace("sine")
+    floor = bench.pair_floor(case, nominal, fit, held, {})
+    assert floor < 1.5, floor
+    one = bench.pair_floor(bench.PairCase(0, "latent_heat", "abbe_offset", "steps", "sine", 3), nominal, fit, held, {})
+    assert one > 2.0 * floor, (one, floor)

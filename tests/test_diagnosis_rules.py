@@ -230,6 +230,21 @@ def test_an_inert_candidate_is_detected_from_its_fitted_residuals():
         assert workflow._inert(fit, problem) is inert
 
 
+def test_a_form_that_changes_the_model_at_off_is_not_inert():
+    """A power-law convection changes the model with its parameter at "off" (its level is
+    the nominal convection scale's): judged against the effect taken out, not against "off"
+    in its own form, it is not inert; the default form at "off" is."""
+    trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=5.0, electrical=False, seed=1))
+    problem = fitting.Problem(ModelConfig(), [fitting.prepare(trace, 1e-3)], 1e-3)
+    base = problem.nominal_parameters()
+    for form, inert in (("default", True), ("power", False)):
+        params = base + fitting.effect_parameters("convection_change", form)
+        values = np.array([p.start for p in params])
+        cost = float(np.sum(problem.residual_matrix(params, [values])[:, 0] ** 2))
+        fit = fitting.Fit("convection_change", params, values, values * 0, cost, 1, ModelConfig(), 0.0)
+        assert workflow._inert(fit, problem) is inert, form
+
+
 def test_when_fitted_and_heldout_data_prefer_different_effects_neither_is_named_alone():
     """The held-out data prefer a convection change, the fitted data a pulse settling (in
     another optimum of the nominal parameters): the evidence disagrees."""

@@ -7,9 +7,10 @@
    has several minima, and the convection scale), then, for every effect of the library,
    the nominal parameters together with the effect's parameters. An effect is *supported* when all hold:
 
-   * its effect is not *inert*: with the effect's parameters back at "off" its fit is the
-     same (the gain of an inert fit came from the nominal parameters alone; if it fitted
-     better than the refit, the refit is run again from there and becomes the reference);
+   * its effect is not *inert*: with the effect taken out (its parameters back at "off", in
+     its default form: some forms change the model even at "off") its fit is the same (the
+     gain of an inert fit came from the nominal parameters alone; if it fitted better than
+     the refit, the refit is run again from there and becomes the reference);
    * on the fitted data its BIC is lower than the reference's by more than
      ``BIC_THRESHOLD`` (10: "very strong" evidence on the Kass-Raftery scale), with BIC =
      N_eff ln(RSS / N) + k ln(N_eff), where N_eff is the sample count divided by the
@@ -1029,20 +1030,29 @@ def _judge(
 
 
 def _inert(fit: fitting.Fit, problem: fitting.Problem) -> bool:
-    """The candidate's effect changes nothing: with its parameters back at "off" the fitted
+    """The candidate's effect changes nothing: with the effect taken out (its parameters back
+    at "off", and in its default form, which at "off" is the model without it) the fitted
     residuals are the same. Its gain over the refit, if any, came from the nominal
     parameters alone (a better local optimum the effect's starting sweep happened to find),
-    so it is no evidence for the effect."""
+    so it is no evidence for the effect.
+
+    The form matters: some forms change the model even at "off" (a uniform instead of a
+    normal spread of the nominal's transformation temperatures, latent heat released
+    asymmetrically, a power-law convection whose level the nominal convection scale
+    carries). Judged at "off" in its own form, such a candidate looked inert wherever its
+    parameters stayed at "off", and so could never be chosen."""
     off = fit.values.copy()
+    parameters = list(fit.parameters)
     changed = False
-    for k, p in enumerate(fit.parameters):
+    for k, p in enumerate(parameters):
         if p.kind == "effect" and p.effect == fit.name:  # not the effects found before
             value = EFFECTS[p.effect].parameter(p.name.split(".", 1)[1]).off
-            changed |= bool(off[k] != value)
+            changed |= bool(off[k] != value) or p.form != "default"
             off[k] = value
+            parameters[k] = replace(p, form="default")
     if not changed:
         return True
-    res = problem.residual_matrix(fit.parameters, [off])[:, 0]
+    res = problem.residual_matrix(parameters, [off])[:, 0]
     return abs(float(np.sum(res**2)) - fit.cost) <= INERT_TOLERANCE * fit.cost
 
 
