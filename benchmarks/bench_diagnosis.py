@@ -947,11 +947,12 @@ def pair_floor(
     held-out normalised RMS (1 = the noise) of the truth's own model, both hidden effects in
     their hidden forms with the nominal parameters the diagnosis refits, fitted from the
     truth's values (``perturbation``: the generator's factors; the effects at their hidden
-    sizes). The perturbation also moves parameters outside that set (the preload, the
-    moving mass), so this can stay above ``NOISE_STOP``: then no diagnosis can bring the
-    case's last round within 2x the noise, and an effect's gain on top of the other is
-    bounded by what is left above this floor. Near 1, whatever the diagnosis leaves above
-    it is the search's or the verdict rules' doing."""
+    sizes). Near 1, the data allow the noise, and whatever the diagnosis leaves above it is
+    the search's or the verdict rules' doing. The perturbation also moves parameters
+    outside that set (the preload, the moving mass), and a friction's landscape is rugged,
+    so this can stay well above ``NOISE_STOP``; it is then no bound (a fit from elsewhere
+    can end lower: measured 1.1-1.3x lower on five cases of seed 53, all with a friction or a settling), only a sign that the
+    data or the refit set, not the rules, keep that case from the noise."""
     dt = CONTROL_PERIOD_S
     problem = fitting.Problem(nominal, [fitting.prepare(fit, dt)], dt, fitting.default_threads())
     held_problem = fitting.Problem(nominal, [fitting.prepare(held, dt)], dt, fitting.default_threads())
