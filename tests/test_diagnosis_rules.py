@@ -218,6 +218,46 @@ def test_batched_simulations_give_the_same_residuals_bit_for_bit_on_any_number_o
             fitting.Problem(ModelConfig(), data, 1e-3, threads=bad)
 
 
+def test_a_fit_simulates_jacobian_columns_only_at_accepted_steps_and_ends_as_if_at_every_step():
+    """The Jacobian's columns are simulated only where TRF asks for them (a rejected trial
+    step needs only its residual), which is the same fit bit for bit as simulating them
+    with every residual (a column does not depend on its batch, test above)."""
+    from scipy.optimize import least_squares
+
+    trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=4.0, electrical=True, seed=3))
+    problem = fitting.Problem(ModelConfig(), [fitting.prepare(trace, 1e-3)], 1e-3, threads=1)
+    params = problem.nominal_parameters()
+    warm = {"convection_scale": 2.0, "temperature_shift_k": 9.0}
+    lower = np.array([p.lower for p in params])
+    upper = np.array([p.upper for p in params])
+    span = upper - lower
+
+    def every_step(u):
+        h = 1e-3 * span
+        h = np.where(u + h > upper, -h, h)
+        res = problem.residual_matrix(params, [u] + [u + np.eye(len(u))[k] * h[k] for k in range(len(u))])
+        return res[:, 0], (res[:, 1:] - res[:, :1]) / h[None, :]
+
+    start = fitting.starts_for(params, warm)
+    assert len(start) == 1
+    ref = least_squares(
+        lambda u: every_step(u)[0],
+        start[0],
+        jac=lambda u: every_step(u)[1],
+        bounds=(lower, upper),
+        x_scale=span,
+        max_nfev=40,
+        method="trf",
+    )
+    assert ref.nfev > ref.njev  # the data make TRF reject a step: the case the rule is for
+    columns = []
+    simulate = problem.residual_matrix
+    problem.residual_matrix = lambda p, points: columns.append(len(points)) or simulate(p, points)
+    fit = problem.fit("nominal refit", params, warm=warm)
+    assert np.array_equal(fit.values, ref.x) and fit.cost == float(np.sum(ref.fun**2))
+    assert sum(columns) == ref.nfev + len(params) * ref.njev < (len(params) + 1) * ref.nfev
+
+
 def test_an_inert_candidate_is_detected_from_its_fitted_residuals():
     trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=5.0, electrical=False, seed=1))
     problem = fitting.Problem(ModelConfig(), [fitting.prepare(trace, 1e-3)], 1e-3)
@@ -690,7 +730,7 @@ def test_a_candidate_on_top_of_an_effect_found_is_swept_over_its_own_range(monke
         return np.array(out).T
 
     monkeypatch.setattr(problem, "residual_matrix", residual_matrix)
-    warm = {"supply_sag.series_resistance_ohm": 1.0, "temperature_shift_k": 0.3}
+    warm = {"convection_scale": 2.0, "temperature_shift_k": 9.0}
     for sweep in ((), workflow.REFIT_SWEEP):
         fit = problem.fit("friction", params, warm=warm, sweep=sweep, sweep_effect="coulomb_friction")
         found = dict(zip(names, fit.values))
