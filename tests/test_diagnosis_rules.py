@@ -730,7 +730,7 @@ def test_a_candidate_on_top_of_an_effect_found_is_swept_over_its_own_range(monke
         return np.array(out).T
 
     monkeypatch.setattr(problem, "residual_matrix", residual_matrix)
-    warm = {"convection_scale": 2.0, "temperature_shift_k": 9.0}
+    warm = {"supply_sag.series_resistance_ohm": 1.0, "temperature_shift_k": 0.3}
     for sweep in ((), workflow.REFIT_SWEEP):
         fit = problem.fit("friction", params, warm=warm, sweep=sweep, sweep_effect="coulomb_friction")
         found = dict(zip(names, fit.values))

@@ -482,8 +482,9 @@ class Problem:
                 # Forward differences from the residual at ``u`` (TRF asks for it first),
                 # the columns in one batched simulation. Only where TRF needs them: a
                 # rejected trial step needs none, and a batch costs in proportion to its
-                # size (measured on the real bench: 0.13 s per column), so computing the
-                # columns with every residual spent 8-15 % of a fit on rejected steps. A
+                # size, so computing the columns with every residual wasted them on every
+                # rejected step (measured, the four-run real-bench diagnosis: 22 % of its
+                # simulated columns). A
                 # column's result does not depend on its batch, so the fits are unchanged
                 # bit for bit.
                 h = 1e-3 * span
