@@ -1053,7 +1053,10 @@ def test_pruning_judges_the_rest_again_after_each_removal(monkeypatch, second_re
         (700.0, 1.95, "latent_heat"),  # fits better with it (ΔBIC -330), predicts worse: seed 2's case 0
         (505.0, 2.20, "latent_heat"),  # predicts 9 % better, but the fitted data hardly need it (ΔBIC -3)
         (500.0, 2.00, "latent_heat"),  # nothing either way
-        (700.0, 2.04, None),  # both still better with it, if only 2 % held out: it stays
+        # Fits better with it, but predicts only 2 % better: the held-out data cannot tell it
+        # from its absence (seed 67's case 1: a width standing in for a friction, +2.1 %).
+        (700.0, 2.04, "latent_heat"),
+        (700.0, 2.20, None),  # both still better with it, 9 % held out: it stays
     ],
 )
 def test_an_effect_a_later_round_made_redundant_is_taken_out(cost_without, rms_without, removed):
@@ -1061,7 +1064,9 @@ def test_an_effect_a_later_round_made_redundant_is_taken_out(cost_without, rms_w
     of the two-effect benchmark: the truth is the surroundings with the spread). Each round
     judged its candidates on top of what was found before, never the other way round, so
     the effects of earlier rounds are refitted out one at a time: one stays only while the
-    model with it fits better by the BIC bar and predicts the held-out data better."""
+    model with it fits better by the BIC bar and predicts the held-out data better by more
+    than the margin within which candidates are indistinguishable (5 %)."""
+    assert workflow.PRUNE_MARGIN == workflow.AMBIGUITY_MARGIN == 0.05
     base = tuple(p for p in fitting.NOMINAL if p.kind != "offset") + (fitting.RESISTIVITY,)
     effects = {e: fitting.effect_parameters(e) for e in ("warm_surroundings", "latent_heat", "transformation_spread")}
     full_params = base + sum(effects.values(), ())
@@ -1100,5 +1105,6 @@ def test_an_effect_a_later_round_made_redundant_is_taken_out(cost_without, rms_w
         assert name is None and fit is None
     else:
         assert name == removed and all(p.effect != removed for p in fit.parameters)
-        bars = records[1]["delta_bic_of_keeping"] > -workflow.BIC_THRESHOLD, records[1]["heldout_gain_of_keeping"] <= 0
+        gain = records[1]["heldout_gain_of_keeping"]
+        bars = records[1]["delta_bic_of_keeping"] > -workflow.BIC_THRESHOLD, gain <= workflow.PRUNE_MARGIN
         assert any(bars)

@@ -90,7 +90,8 @@ Without held-out files the last ``HOLDOUT_FRACTION`` (30 %) of every fitted file
 7. Prune: when effects were found in more than one round (or the last round kept its
    refit of two or more), each effect of an earlier round (of every round before it) is
    refitted out of the final model; one with which the model no longer both fits better
-   by the BIC bar and predicts the held-out data better was standing in for another and
+   by the BIC bar and predicts the held-out data better by more than ``PRUNE_MARGIN``
+   (5 %, the margin within which candidates are indistinguishable) was standing in for another and
    is taken out (the one whose removal predicts best), and the rest are judged again
    without it, until none fails or one effect is left. The last round's record holds
    every such check (``pruning``) and those removed (``removed``, in order), and shows
@@ -170,10 +171,17 @@ measured (a power-law convection with an Abbe offset hidden, ramps fitted), the 
 from the shift's sweep alone stopped at 270x the noise held out with the scale at 1.0007,
 from the grid's point (1.59) it reached 32x; the convection in its power form, 379x and
 11x."""
-PRUNE_MARGIN = 0.0
+PRUNE_MARGIN = AMBIGUITY_MARGIN
 """Held-out gain an effect found in an earlier round must still give once later rounds have
 added theirs (``_pruned``), besides the BIC bar: looser than the gain that let it in (10 %,
-25 %), so that only an effect that no longer helps on new data goes."""
+25 %), so that only an effect that no longer helps on new data goes, but not looser than
+the margin within which two candidates are indistinguishable held out (5 %): an effect
+whose presence the held-out data cannot tell from its absence is not a finding. Measured
+(seed 67's case 1 of the two-effect benchmark, a Coulomb friction with a sensor lag; until
+2026-12-04 the margin was 0): round 1 named ``minor_loop_width`` (a look-alike of the
+friction: both hold the sleigh after a reversal), round 2 the lag with the friction, and
+keeping the width then gained 2.1 % and 1.1 % held out; it was named with confidence.
+The hidden effects kept by the pruning of seed 67's cases 0, 2, 3, 5 and 19 gained 92-99.6 %."""
 DEFAULT_MAX_ROUNDS = 3
 CONTROL_PERIOD_S = 1e-3
 MAX_DURATION_S = 1800.0
@@ -789,7 +797,7 @@ def _pruned(
     explained what the spread then explained better). Backward elimination after forward
     selection, with looser bars than the entry's: each earlier effect is taken out and the
     rest refitted; it stays only if the full model still fits better by the BIC bar *and*
-    predicts the held-out data better by more than ``PRUNE_MARGIN``. Of those that fail,
+    predicts the held-out data better by more than ``PRUNE_MARGIN`` (5 %). Of those that fail,
     the one whose removal leaves the best held-out score goes (one per call: removing one
     changes what the others explain, so ``diagnose`` calls again on the rest).
     """
