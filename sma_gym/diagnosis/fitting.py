@@ -504,29 +504,24 @@ class Problem:
                 res = self.residual_matrix(params, [u + np.eye(len(u))[k] * h[k] for k in range(len(u))])
                 return (res - residual(u)[:, None]) / h[None, :]
 
-            sol = least_squares(
-                residual,
-                np.clip(start, lower, upper),
-                jac=jacobian,
-                bounds=(lower, upper),
-                x_scale=span,
-                max_nfev=max_nfev,
-                method="trf",
-            )
+            def solve(x0: np.ndarray, method: str, budget: int, residual=residual, jacobian=jacobian):
+                return least_squares(
+                    residual,
+                    x0,
+                    jac=jacobian,
+                    bounds=(lower, upper),
+                    x_scale=span,
+                    max_nfev=budget,
+                    method=method,
+                )
+
+            sol = solve(np.clip(start, lower, upper), "trf", max_nfev)
             if sol.status == 0:
                 # Stopped by the budget while still descending: dogbox's rectangular trust
                 # region follows the ravine TRF crawls along (``POLISH_MAX_NFEV``). It
                 # starts at TRF's end and is kept only if it ends lower, so a fit that
                 # converged is unchanged and no fit gets worse.
-                polish = least_squares(
-                    residual,
-                    sol.x,
-                    jac=jacobian,
-                    bounds=(lower, upper),
-                    x_scale=span,
-                    max_nfev=POLISH_MAX_NFEV,
-                    method="dogbox",
-                )
+                polish = solve(sol.x, "dogbox", POLISH_MAX_NFEV)
                 if polish.cost < sol.cost:
                     sol = polish
             if best is None or sol.cost < best.cost:
