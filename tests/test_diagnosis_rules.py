@@ -499,7 +499,7 @@ def test_a_pair_is_named_only_when_it_predicts_better_than_the_refit(joint_rms, 
     ref, r = unexplained_round_with_two_hidden(held)
     held.residuals["coulomb_friction + pulse_settling"] = smooth(9, joint_rms, 50)
 
-    def fit(name, params, warm=None):
+    def fit(name, params, warm=None, **kwargs):
         return SimpleNamespace(
             name=name, parameters=name, values=np.zeros(1), cost=1.0, n=1000, k=12, values_by_name=lambda: {}
         )
@@ -552,7 +552,7 @@ def test_pairs_the_heldout_data_cannot_tell_apart_are_named_only_when_the_fitted
     held.residuals["coulomb_friction + sensor_lag"] = smooth(10, 3.01, 50)
     costs = {"coulomb_friction + pulse_settling": 500.0, "coulomb_friction + sensor_lag": lag_pair_cost}
 
-    def fit(name, params, warm=None):
+    def fit(name, params, warm=None, **kwargs):
         return SimpleNamespace(
             name=name, parameters=name, values=np.zeros(1), cost=costs[name], n=1000, k=12, values_by_name=lambda: {}
         )
@@ -576,10 +576,12 @@ class FormProblem:
         self.held, self.costs, self.held_rms = held, costs, held_rms
         self.default_cost, self.default_rms = default_cost, default_rms
         self.calls: list[tuple] = []
+        self.starts: list[tuple] = []  # (forms, warm, also_from) of every call
 
-    def fit(self, name, params, warm=None, sweep_effect=None, **kwargs):
+    def fit(self, name, params, warm=None, sweep_effect=None, also_from=(), **kwargs):
         forms = tuple(sorted({(p.effect, p.form) for p in params if p.kind == "effect"}))
         self.calls.append((name, forms))
+        self.starts.append((forms, warm, list(also_from)))
         self.held.residuals[params] = smooth(len(self.calls), self.held_rms.get(forms, self.default_rms), 50)
         return SimpleNamespace(
             name=name,
@@ -662,6 +664,168 @@ def test_a_pair_is_fitted_in_its_other_forms_and_named_in_the_forms_the_fitted_d
         assert workflow._form_of(out.chosen) == "uniform + mean"
     else:
         assert out is None
+
+
+def rivals_round(held: HeldOut, width_values: dict | None = None, settling_values: dict | None = None):
+    """Two-effect benchmark, seed 89, case 5 (wider minor loops in their mean form with a
+    delayed pulse settling hidden; figures rounded): round 1 ambiguous between the loops in
+    their default form and the settling, whose default-form pair fits better than the loops
+    alone by ΔBIC +5.7 only: no evidence for the pair in those forms."""
+    base = fitting.NOMINAL[:1]
+    width_p = base + fitting.effect_parameters("minor_loop_width")
+    settling_p = base + fitting.effect_parameters("pulse_settling")
+    offset_p = base + fitting.effect_parameters("abbe_offset")
+    ref = made_candidate(held, "nominal refit", base, 0.0, 25.0, 0)
+    width = made_candidate(held, "minor_loop_width", width_p, -400.0, 17.6, 1)
+    settling = made_candidate(held, "pulse_settling", settling_p, -150.0, 18.1, 2)
+    offset = made_candidate(held, "abbe_offset", offset_p, -60.0, 22.0, 3)
+    width.fit.values_by_name = lambda: dict(width_values or {})
+    settling.fit.values_by_name = lambda: dict(settling_values or {})
+    r = workflow._Round(
+        "ambiguous", ["minor_loop_width", "pulse_settling"], ref, width, [ref, width, settling, offset], None, 40.0
+    )
+    return ref, r
+
+
+def rivals_problem(held: HeldOut, n_eff: float, hidden_fit: float) -> FormProblem:
+    """Fits whose cost is the loops' but for the pair in the hidden forms (``hidden_fit``
+    times the default-form pair's cost), held out at the noise there."""
+    width_cost = 1000.0 * math.exp((-400.0 - 1.0 * math.log(n_eff)) / n_eff)
+    default_pair_cost = width_cost * math.exp((5.7 + 1.0 * math.log(n_eff)) / n_eff)
+    hidden = (("minor_loop_width", "mean"), ("pulse_settling", "delay"))
+    return FormProblem(
+        held,
+        costs={hidden: default_pair_cost * hidden_fit},
+        held_rms={hidden: 1.0},
+        default_cost=default_pair_cost,
+        default_rms=17.5,
+    )
+
+
+@pytest.mark.parametrize("hidden_forms_fit", [True, False])
+def test_an_ambiguous_rounds_rivals_pair_is_fitted_in_its_other_forms_without_evidence(hidden_forms_fit):
+    """The rivals' pair in its members' default forms fits no better than the loops alone
+    (ΔBIC +5.7): it has no evidence, so its other forms were never tried, and the
+    diagnosis ended ambiguous at 17.6x the noise where the truth's own model reaches 1.00x.
+    An ambiguous round ends the rounds, so its first two rivals' pair is fitted in every
+    other combination of forms anyway: named in the hidden forms when those fit better.
+    A pair of other candidates without evidence is not refitted."""
+    held = HeldOut()
+    ref, r = rivals_round(held)
+    n_eff = 1000.0
+    problem = rivals_problem(held, n_eff, 0.5 if hidden_forms_fit else 1.2)
+    pairs = [("minor_loop_width", "pulse_settling"), ("minor_loop_width", "abbe_offset")]
+    out = workflow._joint(r, pairs, [ref], fitting.NOMINAL[:1], problem, held, n_eff, 0.10, lambda m: None)
+    refitted = [c for c in problem.calls if any(form != "default" for _, form in c[1])]
+    assert len(refitted) == 3 and all(c[0] == "minor_loop_width + pulse_settling" for c in refitted)
+    if hidden_forms_fit:
+        assert out is not None and out.verdict == "effects"
+        assert workflow._form_of(out.chosen) == "mean + delay"
+    else:
+        assert out is None
+
+
+def test_a_pairs_other_forms_start_from_the_nominal_values_of_each_members_own_fit():
+    """Seed 89, case 7 (a second-order sensor lag with a delayed settling): the pair in the
+    hidden forms, started where the default-form pair ended, stopped with the delay at
+    zero (29.9x the noise); from the lag's own fit it reached 1.00x. Every other combination
+    of a pair's forms therefore also starts from each member's own fit: the nominal
+    parameters where that member left them, each effect where its own fit did."""
+    held = HeldOut()
+    width = {"convection_scale": 1.3, "minor_loop_width.min_width_share": 0.7}
+    settling = {"convection_scale": 0.8, "pulse_settling.rise_time_constant_s": 2e-5}
+    ref, r = rivals_round(held, width, settling)
+    problem = rivals_problem(held, 1000.0, 0.5)
+    workflow._joint(
+        r,
+        [("minor_loop_width", "pulse_settling")],
+        [ref],
+        fitting.NOMINAL[:1],
+        problem,
+        held,
+        1000.0,
+        0.10,
+        lambda m: None,
+    )
+    others = [also for forms, _, also in problem.starts if any(form != "default" for _, form in forms)]
+    both = {"minor_loop_width.min_width_share": 0.7, "pulse_settling.rise_time_constant_s": 2e-5}
+    assert len(others) == 3
+    for also in others:
+        assert also == [{**both, "convection_scale": 1.3}, {**both, "convection_scale": 0.8}]
+
+
+def test_a_fit_also_starts_from_each_point_it_is_given(monkeypatch):
+    """``Problem.fit(also_from=...)``: a basin no start, sweep or grid reaches (a convection
+    scale of 0.62 at a shift of 7.3 K) is found from a start given there, by name."""
+    trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, electrical=False, seed=1))
+    problem = fitting.Problem(ModelConfig(), [fitting.prepare(trace, 1e-3)], 1e-3)
+    params = problem.nominal_parameters()
+    names = [p.name for p in params]
+
+    def residual_matrix(parameters, points):
+        out = []
+        for point in points:
+            v = dict(zip(names, point))
+            distance = math.hypot((v["temperature_shift_k"] - 7.3) / 0.2, (v["convection_scale"] - 0.62) / 0.02)
+            out.append(np.full(50, 0.01 + min(distance, 1.0)))
+        return np.array(out).T
+
+    monkeypatch.setattr(problem, "residual_matrix", residual_matrix)
+    found = dict(
+        zip(
+            names,
+            problem.fit("refit", params, also_from=[{"temperature_shift_k": 7.2, "convection_scale": 0.63}, {}]).values,
+        )
+    )
+    assert found["temperature_shift_k"] == pytest.approx(7.3, abs=0.05) and found["convection_scale"] > 0.6
+    missed = dict(zip(names, problem.fit("refit", params).values))
+    assert abs(missed["temperature_shift_k"] - 7.3) > 1.0
+
+
+def test_an_ambiguous_rounds_rivals_are_refitted_in_their_other_forms(monkeypatch):
+    """Seed 89, case 12: a round ambiguous between wider minor loops in their default form
+    (13.9x the noise held out) and an Abbe offset; the loops were hidden in their mean form.
+    As an unexplained round's, an ambiguous round's candidates with evidence are refitted in
+    their other forms, and the round is judged again: the loops, in the mean form, fit
+    better and hold out at the noise, and are named alone."""
+    held = HeldOut()
+    costs = {
+        (): 1000.0,
+        (("minor_loop_width", "default"),): 800.0,
+        (("minor_loop_width", "mean"),): 100.0,
+        (("abbe_offset", "default"),): 810.0,
+        (("abbe_offset", "wear"),): 805.0,
+    }
+    rms = {(): 20.0, (("minor_loop_width", "mean"),): 1.0, (("abbe_offset", "wear"),): 14.0}
+    problem = FormProblem(held, costs, rms, default_cost=1000.0, default_rms=13.9)
+
+    class Problem:
+        electrical = True
+
+        def __init__(self, *args, **kwargs):
+            pass
+
+        def nominal_parameters(self):
+            return fitting.NOMINAL[:1]
+
+        def fit(self, name, params, **kwargs):
+            fit = problem.fit(name, params, **kwargs)
+            fit.correlation_time_samples, fit.model, fit.offset = 1.0, None, 0.0
+            return fit
+
+        def residual_matrix(self, parameters, points):
+            if parameters not in held.residuals:  # the model as given: the refit's parameters
+                problem.fit("as given", parameters)
+            return held.residual_matrix(parameters, points)
+
+    monkeypatch.setattr(workflow.fitting, "Problem", Problem)
+    monkeypatch.setattr(workflow, "_inert", lambda fit, problem: False)
+    r = workflow._round(
+        ModelConfig(), [], {}, ["minor_loop_width", "abbe_offset"], {}, None, [], [], 1e-3, 0.10, lambda m: None
+    )
+    assert r.verdict == "effect" and r.effect == "minor_loop_width"
+    assert workflow._form_of(r.chosen) == "mean"
+    assert [c.name for c in r.replaced] == ["minor_loop_width", "abbe_offset"]
 
 
 @pytest.mark.parametrize("switch_fits", [True, False])

@@ -441,12 +441,14 @@ class Problem:
         warm: dict[str, float] | None = None,
         sweep: Sequence[str] = (),
         sweep_effect: str | None = None,
+        also_from: Sequence[dict[str, float]] = (),
     ) -> Fit:
         """Bounded least squares from the starts of :func:`starts_for`, and from the best
         point of a sweep (one batched simulation each): over the range of one effect's
         parameter (``sweep_effect``'s when it has one fitted parameter, else the only
         effect parameter there is), then from there over the grid of the ``sweep``
-        parameters' ranges. A TRF run that ends at ``max_nfev`` is continued by a short
+        parameters' ranges; and from each of ``also_from`` (values by name, the others at
+        their starts). A TRF run that ends at ``max_nfev`` is continued by a short
         dogbox run (``POLISH_MAX_NFEV``), kept if it ends lower."""
         from scipy.optimize import least_squares
 
@@ -474,6 +476,7 @@ class Problem:
             # on the fitted data, then the shift and convection grid's best at 14.2x, and the
             # best fit from its starts ended at 5.9x).
             starts = [starts[0], *grids]
+        starts += [np.array([w.get(p.name, p.start) for p in params]) for w in also_from]
         tried: list[np.ndarray] = []
         for start in starts:
             if any(np.allclose(start, t) for t in tried):
