@@ -754,34 +754,6 @@ def test_a_pairs_other_forms_start_from_the_nominal_values_of_each_members_own_f
         assert also == [{**both, "convection_scale": 1.3}, {**both, "convection_scale": 0.8}]
 
 
-def test_a_fit_also_starts_from_each_point_it_is_given(monkeypatch):
-    """``Problem.fit(also_from=...)``: a basin no start, sweep or grid reaches (a convection
-    scale of 0.62 at a shift of 7.3 K) is found from a start given there, by name."""
-    trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, electrical=False, seed=1))
-    problem = fitting.Problem(ModelConfig(), [fitting.prepare(trace, 1e-3)], 1e-3)
-    params = problem.nominal_parameters()
-    names = [p.name for p in params]
-
-    def residual_matrix(parameters, points):
-        out = []
-        for point in points:
-            v = dict(zip(names, point))
-            distance = math.hypot((v["temperature_shift_k"] - 7.3) / 0.2, (v["convection_scale"] - 0.62) / 0.02)
-            out.append(np.full(50, 0.01 + min(distance, 1.0)))
-        return np.array(out).T
-
-    monkeypatch.setattr(problem, "residual_matrix", residual_matrix)
-    found = dict(
-        zip(
-            names,
-            problem.fit("refit", params, also_from=[{"temperature_shift_k": 7.2, "convection_scale": 0.63}, {}]).values,
-        )
-    )
-    assert found["temperature_shift_k"] == pytest.approx(7.3, abs=0.05) and found["convection_scale"] > 0.6
-    missed = dict(zip(names, problem.fit("refit", params).values))
-    assert abs(missed["temperature_shift_k"] - 7.3) > 1.0
-
-
 def test_an_ambiguous_rounds_rivals_are_refitted_in_their_other_forms(monkeypatch):
     """Seed 89, case 12: a round ambiguous between wider minor loops in their default form
     (13.9x the noise held out) and an Abbe offset; the loops were hidden in their mean form.
@@ -901,26 +873,33 @@ def test_samples_both_models_fit_within_the_noise_do_not_dilute_the_heldout_pref
     assert judge(held, ref, [eff]).verdict == "unexplained"
 
 
+def basin_problem(monkeypatch, distance, effects=()):
+    """A ``fitting.Problem`` on a 2 s steps trace whose fitted cost is flat outside a narrow
+    basin: every residual is 0.01 + min(``distance``(values by name), 1). ``effects``:
+    (effect, form) pairs whose parameters follow the nominal ones. Returns the problem,
+    its parameters and their names."""
+    trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, electrical=False, seed=1))
+    problem = fitting.Problem(ModelConfig(), [fitting.prepare(trace, 1e-3)], 1e-3)
+    params = problem.nominal_parameters() + tuple(p for e, f in effects for p in fitting.effect_parameters(e, f))
+    names = [p.name for p in params]
+
+    def residual_matrix(parameters, points):
+        return np.array([np.full(50, 0.01 + min(distance(dict(zip(names, point))), 1.0)) for point in points]).T
+
+    monkeypatch.setattr(problem, "residual_matrix", residual_matrix)
+    return problem, params, names
+
+
 def test_the_refit_sweeps_the_convection_scale_with_the_temperature_shift(monkeypatch):
     """A heat loss far from the nominal one leaves the wire where its transformation is
     saturated, and the local fit sees no slope there: here the cost is flat outside a
     basin around a shift of -2 K and a convection scale of 1.6 (measured on a power-law
     convection: the refit from a sweep of the shift alone stayed at a scale of 1.0007 and
     270x the noise). The grid over both parameters starts the fit inside the basin."""
-    trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, electrical=False, seed=1))
-    problem = fitting.Problem(ModelConfig(), [fitting.prepare(trace, 1e-3)], 1e-3)
-    params = problem.nominal_parameters()
-    names = [p.name for p in params]
-
-    def residual_matrix(parameters, points):
-        out = []
-        for point in points:
-            v = dict(zip(names, point))
-            distance = math.hypot((v["temperature_shift_k"] + 2.0) / 4.0, math.log(v["convection_scale"] / 1.6) / 0.25)
-            out.append(np.full(50, 0.01 + min(distance, 1.0)))
-        return np.array(out).T
-
-    monkeypatch.setattr(problem, "residual_matrix", residual_matrix)
+    problem, params, names = basin_problem(
+        monkeypatch,
+        lambda v: math.hypot((v["temperature_shift_k"] + 2.0) / 4.0, math.log(v["convection_scale"] / 1.6) / 0.25),
+    )
     both = dict(zip(names, problem.fit("refit", params, sweep=workflow.REFIT_SWEEP).values))
     assert abs(both["convection_scale"] - 1.6) < 0.05 and abs(both["temperature_shift_k"] + 2.0) < 0.5
     shift_only = dict(zip(names, problem.fit("refit", params, sweep=("temperature_shift_k",)).values))
@@ -937,24 +916,11 @@ def test_a_candidate_on_top_of_an_effect_found_is_swept_over_its_own_range(monke
     Stribeck friction on top of a supply sag: swept to 4.5x the noise on the fitted data,
     the grid's best at 14.2x, the fit ended at 5.9x. Here the cost is flat outside a narrow
     basin at a friction of 1.9 N and a shift of 0.3 K, between the grid's shifts."""
-    trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, electrical=False, seed=1))
-    problem = fitting.Problem(ModelConfig(), [fitting.prepare(trace, 1e-3)], 1e-3)
-    params = (
-        problem.nominal_parameters()
-        + fitting.effect_parameters("supply_sag")
-        + fitting.effect_parameters("coulomb_friction", "stribeck")
+    problem, params, names = basin_problem(
+        monkeypatch,
+        lambda v: math.hypot((v["coulomb_friction.force_n"] - 1.9) / 0.3, (v["temperature_shift_k"] - 0.3) / 0.2),
+        effects=(("supply_sag", "default"), ("coulomb_friction", "stribeck")),
     )
-    names = [p.name for p in params]
-
-    def residual_matrix(parameters, points):
-        out = []
-        for point in points:
-            v = dict(zip(names, point))
-            distance = math.hypot((v["coulomb_friction.force_n"] - 1.9) / 0.3, (v["temperature_shift_k"] - 0.3) / 0.2)
-            out.append(np.full(50, 0.01 + min(distance, 1.0)))
-        return np.array(out).T
-
-    monkeypatch.setattr(problem, "residual_matrix", residual_matrix)
     warm = {"supply_sag.series_resistance_ohm": 1.0, "temperature_shift_k": 0.3}
     for sweep in ((), workflow.REFIT_SWEEP):
         fit = problem.fit("friction", params, warm=warm, sweep=sweep, sweep_effect="coulomb_friction")
@@ -964,6 +930,20 @@ def test_a_candidate_on_top_of_an_effect_found_is_swept_over_its_own_range(monke
         assert found["supply_sag.series_resistance_ohm"] == pytest.approx(1.0)
     unswept = dict(zip(names, problem.fit("friction", params, warm=warm).values))
     assert abs(unswept["coulomb_friction.force_n"] - 1.9) > 0.5
+
+
+def test_a_fit_also_starts_from_each_point_it_is_given(monkeypatch):
+    """``Problem.fit(also_from=...)``: a basin no start, sweep or grid reaches (a convection
+    scale of 0.62 at a shift of 7.3 K) is found from a start given there, by name."""
+    problem, params, names = basin_problem(
+        monkeypatch,
+        lambda v: math.hypot((v["temperature_shift_k"] - 7.3) / 0.2, (v["convection_scale"] - 0.62) / 0.02),
+    )
+    given = [{"temperature_shift_k": 7.2, "convection_scale": 0.63}, {}]
+    found = dict(zip(names, problem.fit("refit", params, also_from=given).values))
+    assert found["temperature_shift_k"] == pytest.approx(7.3, abs=0.05) and found["convection_scale"] > 0.6
+    missed = dict(zip(names, problem.fit("refit", params).values))
+    assert abs(missed["temperature_shift_k"] - 7.3) > 1.0
 
 
 def test_an_effect_in_another_form_can_be_swept_from_its_off_value():
