@@ -490,6 +490,42 @@ def test_an_ambiguous_rounds_best_is_paired_with_every_candidate_of_evidence_not
     assert len(pairs) <= workflow.MAX_JOINT_PAIRS and len(set(pairs)) == len(pairs)
 
 
+def test_an_ambiguous_rounds_best_is_paired_with_every_rival_not_only_the_first_three():
+    """Two-effect benchmark, seed 131, case 7 (a convection change with a Coulomb friction
+    hidden, figures rounded): the convection change is best held out, and the friction,
+    ΔBIC +1.3 and 1 % better than the refit held out alone, is one of its rivals, fourth by
+    held-out score behind wider minor loops and a uniform spread (look-alikes). The pairs of
+    the first three names miss it; the best is paired with every rival."""
+    held = HeldOut()
+    refit = smooth(0, 27.1, 400)
+    ref = candidate(held, "nominal refit", 0.0, refit)
+    best = smooth(1, 16.6, 400)
+
+    def rival(factor: float) -> np.ndarray:
+        """Worse than the best in a quarter of the held-out data only: no consistent preference."""
+        out = best * 0.9
+        out[: N // 4] = best[: N // 4] * factor
+        return out
+
+    r = judge(
+        held,
+        ref,
+        [
+            candidate(held, "convection_change", -81.3, best),
+            candidate(held, "minor_loop_width", -6.0, rival(2.3)),
+            candidate(held, "transformation_spread", -52.3, rival(2.4)),
+            candidate(held, "coulomb_friction", 1.3, rival(2.5)),
+            candidate(held, "supply_sag", 4.5, refit, inert=True),
+        ],
+    )
+    assert r.verdict == "ambiguous" and r.effect[0] == "convection_change"
+    assert r.effect.index("coulomb_friction") >= workflow.JOINT_RIVALS
+    pairs = workflow._pairs_to_try(r, 0.10, electrical=True)
+    assert ("convection_change", "coulomb_friction") in pairs
+    assert not any("supply_sag" in p for p in pairs)
+    assert len(pairs) <= workflow.MAX_JOINT_PAIRS and len(set(pairs)) == len(pairs)
+
+
 @pytest.mark.parametrize(("joint_rms", "named"), [(3.0, True), (14.0, False)])
 def test_a_pair_is_named_only_when_it_predicts_better_than_the_refit(joint_rms, named):
     """The pair of an unexplained round must beat the refit as a single effect must (here
