@@ -919,13 +919,14 @@ def _pairs_to_try(r: _Round, heldout_gain: float, electrical: bool) -> list[tupl
         if evidence:
             top = min(evidence, key=lambda c: c.bic).name
             ordered += [(top, n) for n in names if n != top]
-        # Last, the best with each rival beyond the first three: every rival is as good held
-        # out, and which of them rank second and third is chance. Measured (two-effect
-        # benchmark, seed 131, case 7: a convection change with a Coulomb friction hidden,
-        # the friction alone ΔBIC +1.3 and 1 % better held out): the friction ranked third
-        # and its pair with the convection change was named (9.5x the noise); a uniform
-        # spread refitted in its other form ranked ahead of it, the pair was never tried, and
-        # the convection change was named with wider minor loops, a look-alike of the friction.
+        # Last, the best with each rival beyond the first three: the data cannot tell any
+        # rival from the best, so which of them rank second and third is chance. Measured
+        # (two-effect benchmark, seed 131, case 7: a convection change with a Coulomb
+        # friction hidden, the friction alone ΔBIC +1.3 and 1 % better held out): before an
+        # ambiguous round's forms were refitted, the friction ranked third and its pair with
+        # the convection change was named (9.5x the noise); with a uniform spread refitted
+        # in its other form ahead of it, the pair was never tried, and the convection change
+        # was named with wider minor loops, a look-alike of the friction.
         if usable(best):
             ordered += [(best, n) for n in r.effect[JOINT_RIVALS:] if usable(n)]
     elif r.verdict == "unexplained" and len(evidence) >= 2:
