@@ -849,9 +849,10 @@ def _better_form(
     form_refs: Sequence[tuple[dict[str, str], Candidate]],
     as_given: float | None,
 ) -> tuple[dict[str, str], Candidate] | None:
-    """The best other form of an effect found, if the data prefer it to the effect's
-    current form (the refit): by the BIC bar on the fitted data, and better on the held-out
-    data than both the current form and the model as given. An effect's form is as
+    """The best of ``form_refs`` (effects found moved to other forms, one or several at
+    once: {effect: form} and its fit), if the data prefer it to the current forms (the
+    refit): by the BIC bar on the fitted data, and better on the held-out data than both
+    the current forms and the model as given. An effect's form is as
     uncertain as its size (measured: a delayed pulse settling found in its default form
     left 5.0x the noise held out, in its delayed form 1.7x).
 
@@ -1316,7 +1317,7 @@ def _form_references(
         label = _forms_label(changes)
         say(f"reference: {label}")
         fit = problem.fit(
-            " + ".join(changes),
+            ", ".join(f"{n} ({f})" for n, f in changes.items()),  # as a single move's name; " + " names a pair
             params,
             warm=warm,
             max_nfev=FORM_MAX_NFEV,
