@@ -88,10 +88,13 @@ def _diagnose(args: argparse.Namespace) -> int:
     nominal = load_model(args.model or named or DEFAULT_DIAGNOSIS_MODEL)
     outputs = CROSS_VALIDATION_OUTPUTS if args.cross_validate else None
     _require_out_free(args, out, fit, held, outputs)
-    effects = [e.strip() for e in args.effects.split(",")] if args.effects else None
+    effects = None if args.effects is None else [e.strip() for e in args.effects.split(",")]
     for name in effects or []:
         if name not in EFFECTS:
             raise ValueError(f"--effects {name!r}: expected a comma-separated subset of {', '.join(EFFECTS)}")
+    if effects is not None and len(set(effects)) != len(effects):
+        twice = sorted({e for e in effects if effects.count(e) > 1})
+        raise ValueError(f"--effects {args.effects!r}: {', '.join(twice)} given twice; expected each effect once")
 
     def progress(message: str) -> None:
         print(f"sma-gym diagnose: {message}", file=sys.stderr, flush=True)
@@ -291,7 +294,11 @@ def _synth_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--form", default="default", help="form of the effect (default, or an alternative such as uniform)")
     p.add_argument("--excitation", default="steps", choices=("steps", "ramps", "sine", "chirp", "random"))
     p.add_argument("--duration", type=float, default=60.0, help="seconds (default 60)")
-    p.add_argument("--model", default="standard", help="nominal model: preset name or model JSON file")
+    p.add_argument(
+        "--model",
+        default="standard",
+        help="nominal model: preset name or model JSON file (a name goes into the sidecar: diagnose starts from it)",
+    )
     p.add_argument(
         "--perturb", type=float, default=0.05, help="relative perturbation of the nominal parameters (default 0.05)"
     )
@@ -400,7 +407,10 @@ def all_commands() -> list[Command]:
 
 def build_parser(commands: Sequence[Command] | None = None) -> argparse.ArgumentParser:
     """The ``sma-gym`` parser with ``commands`` (default: :func:`all_commands`)."""
+    from sma_gym import __version__
+
     parser = argparse.ArgumentParser(prog="sma-gym", description="SMA actuator simulator, environments and tools.")
+    parser.add_argument("--version", action="version", version=f"sma-gym {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     for command in all_commands() if commands is None else commands:
         help_text, description = command.help, command.description
@@ -429,7 +439,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         require(*command.needs, purpose=f"sma-gym {command.name}", extra=command.extra)
         return int(args.func(args) or 0)
     except MissingExtraError as err:
-        print(f"sma-gym {args.command}: error: {err}", file=sys.stderr)
+        # The message starts with what needs the extra, which is this command's own prefix.
+        print(f"sma-gym {args.command}: error: {str(err).removeprefix(f'sma-gym {args.command}: ')}", file=sys.stderr)
         return 2
     except ValueError as err:
         print(f"sma-gym {args.command}: error: {err}", file=sys.stderr)

@@ -464,7 +464,9 @@ class Simulator:
         if type(duty) is float or type(duty) is int:
             # Fast path for one scalar (a single env calls this every control step).
             if not math.isfinite(duty):
-                raise ValueError(f"duty = {duty!r}: expected finite values in [0, 1]")
+                raise ValueError(
+                    f"duty = {duty!r}: expected finite values (values outside [0, 1] are clipped to the duty range)"
+                )
             if self.n == 1:
                 self._duty_buffer[0, 0] = duty
             else:
@@ -478,7 +480,9 @@ class Simulator:
             else:
                 raise ValueError(f"duty has shape {arr.shape}: expected a scalar or shape ({self.n},)")
             if not np.isfinite(self._duty_buffer).all():
-                raise ValueError(f"duty = {duty!r}: expected finite values in [0, 1]")
+                raise ValueError(
+                    f"duty = {duty!r}: expected finite values (values outside [0, 1] are clipped to the duty range)"
+                )
         self.step_unchecked(self._duty_buffer)
 
     def step_unchecked(self, duty_2d: np.ndarray, noise: np.ndarray | None = None) -> None:
@@ -526,7 +530,9 @@ class Simulator:
             raise ValueError(f"duty has shape {np.shape(duty)}: expected (n_steps,) or (n_steps, {self.n})")
         if not np.all(np.isfinite(arr)):
             bad = np.argwhere(~np.isfinite(arr))[0]
-            raise ValueError(f"duty[{bad[0]}] = {arr[tuple(bad)]!r}: expected finite values in [0, 1]")
+            raise ValueError(
+                f"duty[{bad[0]}] = {arr[tuple(bad)]!r}: expected finite values (values outside [0, 1] are clipped to the duty range)"
+            )
         names = list(dict.fromkeys(["time_s", *record]))
         fields = np.asarray(_fields_of(names, "record"), dtype=np.int64)
         n_steps = arr.shape[0]

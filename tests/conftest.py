@@ -11,8 +11,28 @@ and turn any failure it finds into a fix and, where it names a case worth keepin
 ``@example`` on the test.
 """
 
+import os
+
+import pytest
 from hypothesis import HealthCheck, settings
 
 settings.register_profile("deterministic", derandomize=True, print_blob=True)
 settings.register_profile("explore", derandomize=False, print_blob=True, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("deterministic")
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _sb3_logs_in_pytest_tmp(tmp_path_factory: pytest.TempPathFactory):
+    """Keep stable-baselines3's log folders out of the machine's temp directory.
+
+    Every ``learn()`` without a logger of its own makes an empty ``SB3-<date>`` folder in
+    the system's temp directory (``stable_baselines3.common.logger.configure``), and nothing
+    removes it: a test run left four behind each time. ``$SB3_LOGDIR`` moves them into
+    pytest's own temp tree, which pytest cleans up."""
+    before = os.environ.get("SB3_LOGDIR")
+    os.environ["SB3_LOGDIR"] = str(tmp_path_factory.mktemp("sb3-logs"))
+    yield
+    if before is None:
+        os.environ.pop("SB3_LOGDIR", None)
+    else:
+        os.environ["SB3_LOGDIR"] = before

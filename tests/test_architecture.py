@@ -175,3 +175,14 @@ def test_sma_gym_command_finds_the_agents_subcommands_through_entry_points():
     assert all(isinstance(c, Command) and c.run.__module__ == "sma_gym_agents.commands" for c in plugins.values())
     help_text = build_parser().format_help()
     assert all(name in help_text for name in ("bench", "diagnose", "evaluate", "fidelity", "synth"))
+
+
+def test_python_dash_m_sma_gym_is_the_sma_gym_command_and_says_its_version():
+    """Where the scripts folder is not on PATH, ``python -m sma_gym`` is the command."""
+    import subprocess
+    import sys
+
+    from sma_gym import __version__
+
+    done = subprocess.run([sys.executable, "-m", "sma_gym", "--version"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == f"sma-gym {__version__}", done.stderr

@@ -218,6 +218,30 @@ def test_diagnose_into_a_busy_out_exits_2_and_writes_nothing(tmp_path, capsys):
     assert [p.name for p in (tmp_path / "d").iterdir()] == []
 
 
+@pytest.mark.parametrize(
+    "effects, needle",
+    [
+        ("", "--effects '': expected a comma-separated subset"),  # was: every effect, silently
+        ("sensor_lag,latent_heat,sensor_lag", "sensor_lag given twice"),  # was: fitted twice
+        ("sensor_lag,,latent_heat", "--effects '': expected"),
+    ],
+)
+def test_diagnose_refuses_an_empty_or_repeated_effect_and_writes_nothing(
+    tmp_path, capsys, monkeypatch, effects, needle
+):
+    import sma_gym.diagnosis.workflow
+    from sma_gym.cli import main
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the diagnosis started with a bad --effects")
+
+    monkeypatch.setattr(sma_gym.diagnosis.workflow, "diagnose", no_work)
+    csv = _synth(tmp_path, "s.csv")
+    assert main(["diagnose", str(csv), "--out", str(tmp_path / "d"), "--effects", effects]) == 2
+    assert needle in capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
+
+
 @pytest.mark.parametrize("threads", ["0", "9", "two"])
 def test_diagnose_with_a_bad_thread_count_exits_2_and_writes_nothing(tmp_path, capsys, threads):
     from sma_gym.cli import main
@@ -240,6 +264,24 @@ def _synth(tmp_path: Path, name: str, *extra: str) -> Path:
 
     assert main(["synth", "--out", str(tmp_path / name), "--duration", "5", *extra]) == 0
     return tmp_path / name
+
+
+def test_synths_sidecar_names_a_named_model_so_diagnose_starts_from_it(tmp_path):
+    """``synth --model wire-0.5mm`` wrote a sidecar without the model, and ``diagnose`` on the
+    file then started from the standard wire; a model file has no name to look up."""
+    import json
+
+    from sma_gym.cli import _sidecar_model
+    from sma_gym.data import load_trace
+    from sma_gym.model import load_model
+
+    named = _synth(tmp_path, "named.csv", "--model", "wire-0.5mm")
+    assert json.loads((tmp_path / "named.csv.json").read_text())["model"] == "wire-0.5mm"
+    assert _sidecar_model([load_trace(named)]) == "wire-0.5mm"
+    path = load_model("wire-0.5mm").save(tmp_path / "mine.json")
+    unnamed = _synth(tmp_path, "file.csv", "--model", str(path))
+    assert "model" not in json.loads((tmp_path / "file.csv.json").read_text())
+    assert _sidecar_model([load_trace(unnamed)]) is None
 
 
 def test_synth_refuses_to_overwrite_any_of_its_outputs(tmp_path, capsys):

@@ -159,6 +159,9 @@ def test_without_an_extra_each_command_names_the_extra_to_install():
         """
     )
     assert result["diagnose"][0] == 2 and re.search(_hint("diagnose"), result["diagnose"][1])
+    # One prefix: the message named the command twice ("sma-gym diagnose: error: sma-gym diagnose: ...").
+    assert result["diagnose"][1].count("sma-gym diagnose:") == 1, result["diagnose"][1]
+    assert result["train"][1].count("train.py:") == 1, result["train"][1]
     for name in ("evaluate", "fidelity"):
         # What the commands' module needs to load; evaluate also needs the train extra (below).
         assert result[name][0] == 2 and re.search(_hint("diagnose,plots"), result[name][1]), result[name]

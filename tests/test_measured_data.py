@@ -70,6 +70,10 @@ def test_a_malformed_row_or_cell_is_named_once(tmp_path):
         ("", "empty file"),
         ("t,duty,position\n0,0,0\n", "at least 2"),
         ("t,duty,position\n0,0,x\n0.001,0,0\n", "'x' is not a number"),
+        (  # the message said "expected ohm" for a value that was in ohm
+            "t,duty,position,resistance\n0,0,0,4\n0.001,0,0,-3\n",
+            r"f.csv:3:resistance: -3 ohm \(1 row outside the range\); expected values in \[0, 1000\] ohm",
+        ),
     ],
 )
 def test_unit_slips_and_malformed_files_are_named(tmp_path, text, needle):

@@ -87,6 +87,33 @@ def test_error_features_without_a_position_sensor_are_refused_before_anything_is
     assert not out.exists()
 
 
+def test_ctrl_c_ends_train_py_with_a_line_not_a_traceback_and_keeps_the_checkpoints(tmp_path, capsys, monkeypatch):
+    """Ctrl-C during training printed a KeyboardInterrupt traceback; now one line that says
+    what the folder holds and how to go on, and the shell's code for SIGINT."""
+    import sma_gym_agents.training.run as run_module
+    from sma_gym_agents.training.cli import main
+
+    out = tmp_path / "run"
+
+    def interrupted(run, out, **kwargs):
+        (out / "checkpoints").mkdir(parents=True)
+        (out / "checkpoints" / "model_1000_steps.zip").write_bytes(b"PK")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(run_module, "train_and_compare", interrupted)
+    assert main(["--quick", "--no-progress", "--out", str(out)]) == 130
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "interrupted" in err and str(out) in err and "--overwrite" in err
+    assert (out / "checkpoints" / "model_1000_steps.zip").exists()
+
+    def before_any_file(run, out, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(run_module, "train_and_compare", before_any_file)
+    assert main(["--quick", "--no-progress", "--out", str(tmp_path / "never")]) == 130
+    assert capsys.readouterr().err.strip() == "train.py: interrupted"
+
+
 def test_progress_lines_report_steps_rate_and_time_left():
     """Without a terminal (CI, nohup, cluster logs) train.py prints these instead of a bar."""
     from sma_gym_agents.training.learn import progress_line

@@ -21,7 +21,9 @@ def default_out(run: RunConfig) -> Path:
 
 def main(argv: list[str] | None = None) -> int:
     """Run ``train.py`` with ``argv``; 0 on success, 2 (message on stderr) on a bad option,
-    1 if seeds of a ``--seeds`` sweep failed."""
+    1 if seeds of a ``--seeds`` sweep failed, 130 on Ctrl-C (a line on stderr, no traceback)."""
+    out: Path | None = None
+    sweep = False
     try:
         args = parse_args(argv)  # --help works without the extra
         require(*TRAIN_NEEDS, purpose="train.py", extra="train")
@@ -29,6 +31,7 @@ def main(argv: list[str] | None = None) -> int:
             from sma_gym_agents.training.sweep import check_sweep_args, sweep_main
 
             check_sweep_args(args)
+            sweep, out = True, Path(args.out) if args.out else None
             return sweep_main(args, RunConfig.from_args(args))
         run = RunConfig.from_args(args)
         out = Path(args.out) if args.out else default_out(run)
@@ -36,8 +39,25 @@ def main(argv: list[str] | None = None) -> int:
 
         table, _ = train_and_compare(run, out, overwrite=args.overwrite, progress=not args.no_progress)
     except (ValueError, MissingExtraError) as err:
-        print(f"train.py: error: {err}", file=sys.stderr)
+        # A missing extra's message starts with what needs it ("train.py: "), the prefix here.
+        print(f"train.py: error: {str(err).removeprefix('train.py: ')}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        # Ctrl-C is the user's choice, not a bug: no traceback; the shell's code for SIGINT.
+        # The checkpoints written so far stay (they are worth keeping); without results.md
+        # the folder is never taken for a finished run.
+        if out is None or not out.exists():
+            print("train.py: interrupted", file=sys.stderr)
+        elif sweep:
+            print(f"train.py: interrupted; --resume --out {out} continues the sweep", file=sys.stderr)
+        else:
+            print(
+                f"train.py: interrupted; {out} keeps the checkpoints written so far (checkpoints/, "
+                "best_model.zip if validation had run) but no final model or results.md; "
+                "train into a new --out or pass --overwrite to start again",
+                file=sys.stderr,
+            )
+        return 130
     print(table)
     print(f"run folder: {out}")
     return 0

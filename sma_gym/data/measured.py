@@ -317,8 +317,8 @@ def _value_problems(columns: dict[str, np.ndarray], where: str, reported: dict[s
             if bad.size:
                 i = bad[0]
                 problems.append(
-                    f"{where}:{i + 2}:{name}: {float(v[i]):g} {unit} ({bad.size} rows outside [0, {limit:g}] {unit}); "
-                    f"expected {unit}"
+                    f"{where}:{i + 2}:{name}: {float(v[i]):g} {unit} ({bad.size} row{'s' if bad.size > 1 else ''} "
+                    f"outside the range); expected values in [0, {limit:g}] {unit} (SI units)"
                 )
 
     return problems

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +38,7 @@ from sma_gym.data.measured import (
     write_trace,
 )
 from sma_gym.effects import EFFECTS
-from sma_gym.model import ModelConfig, load_model
+from sma_gym.model import ModelConfig, load_model, model_names
 from sma_gym.simulator import Simulator
 
 EXCITATIONS = ("steps", "ramps", "sine", "chirp", "random")
@@ -257,14 +257,19 @@ def check_outputs(path: Path, overwrite: bool) -> None:
         check_output_file(target, "--out", overwrite=overwrite)
 
 
-def write(spec: SynthSpec, path: Path, overwrite: bool = False) -> tuple[Path, Path]:
+def write(spec: SynthSpec, path: Path, overwrite: bool = False, model_name: str | None = None) -> tuple[Path, Path]:
     """Write ``path`` (CSV), its sidecar ``path.json`` and the labels ``<stem>.labels.json``.
 
-    Refuses, before any work, to replace any of them unless ``overwrite``; each is written
-    atomically, the CSV last (a CSV on disk always has its sidecar and labels).
+    ``model_name``, a preset or twin name, goes into the sidecar as ``"model"``, as a lab
+    names its actuator's nominal model: ``sma-gym diagnose`` then starts from it without
+    ``--model``. Refuses, before any work, to replace any of them unless ``overwrite``;
+    each is written atomically, the CSV last (a CSV on disk always has its sidecar and
+    labels).
     """
     check_outputs(path, overwrite)
     trace, labels = generate(spec)
+    if model_name is not None:
+        trace = replace(trace, conditions={**trace.conditions, "model": model_name})
     _, _, labels_path = output_paths(path)
     write_json(labels_path, labels)
     csv_path = write_trace(path, trace, overwrite=True)
@@ -353,6 +358,9 @@ def main(args) -> int:
         actuator_seed=args.actuator_seed,
     )
     check_spec(spec)
-    csv_path, labels_path = write(spec, Path(args.out), overwrite=args.overwrite)
+    # A file's model is the nominal model a lab would name; a model JSON file has no name
+    # diagnose could look up, so only presets and twins are named.
+    named = args.model if args.model in model_names() else None
+    csv_path, labels_path = write(spec, Path(args.out), overwrite=args.overwrite, model_name=named)
     print(f"wrote {csv_path} (+ sidecar) and labels {labels_path}")
     return 0

@@ -13,6 +13,7 @@ resistivity +-5 % (``spread`` scales all of these; 0 switches them off).
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -89,7 +90,9 @@ class Conditions:
         """Draw one condition (fixed order of draws: same seed, same condition)."""
         u = rng.uniform
         voltage = float(u(*self.supply_voltage_v))
-        convection = self.convection[int(rng.integers(len(self.convection)))]
+        # Always one draw over both kinds: numpy draws nothing for a single choice, so fixing
+        # the convection shifted every later draw and the same seed gave another wire.
+        convection = self.convection[int(rng.integers(len(CONVECTIONS))) % len(self.convection)]
         diameter = float(u(*self.wire_diameter_m))
         s = self.spread
         h_scale = float(np.exp(u(-0.15, 0.15) * s))
@@ -131,7 +134,9 @@ class Conditions:
         return replace(base, actuator=actuator), condition
 
 
-def require_no_silent_override(model: ModelConfig, reference: ModelConfig, given: set[str]) -> None:
+def require_no_silent_override(
+    model: ModelConfig, reference: ModelConfig, given: set[str], label: object = None
+) -> None:
     """Refuse a ``model`` whose own supply, wire or convection the draws would change unasked.
 
     The draws set the supply voltage and the wire diameter outright and multiply the
@@ -141,7 +146,9 @@ def require_no_silent_override(model: ModelConfig, reference: ModelConfig, given
     supply by 5-15 V, a twin's 0.5 mm wire by 0.2-0.5 mm, and cooled a fan-cooled model
     2.5x harder again while labelling the draw "natural". So the user says which they mean,
     by passing the condition's kwarg (a number or "natural" keeps it; a range or "random"
-    draws it)."""
+    draws it). ``label`` is the ``model`` argument as the user gave it (a preset name, a
+    path, a model), named in the error: a corrected model's actuator keeps the name of the
+    preset it was diagnosed from, which the user never typed."""
     p, r = model.actuator, reference.actuator
     problems = []
     if "supply_voltage_v" not in given and p.driver.supply_voltage_v != r.driver.supply_voltage_v:
@@ -164,9 +171,14 @@ def require_no_silent_override(model: ModelConfig, reference: ModelConfig, given
         )
     if problems:
         raise ValueError(
-            f"model = {model.actuator.name!r}: the robustness env draws its conditions at every reset, and "
-            + "; ".join(problems)
+            f"model = {_shown(model, label)!r}: the robustness env draws its "
+            "conditions at every reset, and " + "; ".join(problems)
         )
+
+
+def _shown(model: ModelConfig, label: object) -> str:
+    """How an error names the model: as the user gave it when that was a name or a path."""
+    return str(label) if isinstance(label, (str, os.PathLike)) else model.actuator.name
 
 
 CONDITION_KWARGS = tuple(f.name for f in fields(Conditions))

@@ -130,6 +130,10 @@ ROBUST_MODEL_CHECK = """
       convection differs from the default model's raises `ValueError` unless the matching
       condition kwarg is given; before, the draws replaced its supply and diameter and
       multiplied an already fan-cooled convection by the fan's factor again, unasked.
+      With `convection` fixed ("natural" or "forced"), a seed's other draws (supply, wire,
+      spread) are now those of the default "random" draw; fixing it shifted them, so a
+      natural and a forced episode of one seed saw different wires. The default draws are
+      bit for bit the same.
     """
 
 VERSION_0_2 = (

@@ -178,6 +178,10 @@ class EpisodePlot:
         self._background = self.canvas.copy_from_bbox(self.figure.bbox)
 
 
+NON_INTERACTIVE_BACKENDS = frozenset({"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"})
+"""matplotlib backends that write files and never open a window."""
+
+
 class Renderer:
     """What a single env needs for ``render_mode``: the history, the plot, a human window."""
 
@@ -220,6 +224,17 @@ class Renderer:
         import matplotlib.pyplot as plt
 
         if self._window is None:
+            backend = str(plt.get_backend())
+            if backend.lower() in NON_INTERACTIVE_BACKENDS:
+                import gymnasium as gym
+
+                # Without a display pyplot falls back to a file backend, and the window would
+                # silently never appear.
+                gym.logger.warn(
+                    f"render_mode='human': matplotlib's backend {backend!r} shows no window (no display?); "
+                    "use render_mode='rgb_array' for frames (e.g. gymnasium's RecordVideo), or set MPLBACKEND "
+                    "to an interactive backend"
+                )
             figure = plt.figure(figsize=(WIDTH_IN, WIDTH_IN), dpi=DPI)
             ax = figure.add_axes((0, 0, 1, 1))
             ax.set_axis_off()

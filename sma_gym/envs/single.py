@@ -35,7 +35,7 @@ from sma_gym.envs.task import (
     DEFAULT_PWM_MODE,
     DEFAULT_REFERENCE,
 )
-from sma_gym.model import ModelConfig, ModelSpec, load_model
+from sma_gym.model import ModelConfig, ModelSpec, load_model, model_names
 from sma_gym.simulator import PWM_MODES, Simulator
 
 _ONE_ACTUATOR = np.zeros(1, dtype=np.int64)
@@ -71,7 +71,12 @@ def reject_unknown(unknown: dict[str, Any], accepted: tuple[str, ...]) -> None:
         return
     name = min(unknown)
     if name in CONDITION_KWARGS:
-        raise ValueError(f"{name} = {unknown[name]!r}: only the robustness env randomises conditions; use model= here")
+        field = {"supply_voltage_v": "driver.supply_voltage_v", "wire_diameter_m": "wire.diameter_m"}.get(name)
+        own = f", or sma_gym.load_model().with_actuator(**{{{field!r}: ...}})" if field else ""
+        raise ValueError(
+            f"{name} = {unknown[name]!r}: only the robustness env takes conditions; here the model carries them: "
+            f"model= one of {', '.join(repr(m) for m in model_names())}, a model JSON file{own}"
+        )
     if name == "pwm_mode":
         raise ValueError("pwm_mode: the multiplexed env is always PWM-resolved")
     raise ValueError(f"unknown env kwargs {sorted(unknown)}: expected some of {list(accepted)}")
@@ -170,7 +175,7 @@ class Settings:
         if not variant.randomised:
             reject_unknown(given, accepted)
         elif a["model"] is not None:
-            require_no_silent_override(m, load_model(variant.default_model), set(given))
+            require_no_silent_override(m, load_model(variant.default_model), set(given), a["model"])
         return cls(
             model=m,
             control_period_s=require_range("control_period_s", a["control_period_s"], 1e-4, 0.1, "s"),
