@@ -240,7 +240,9 @@ class PolicyCard:
         if not path.exists():
             raise ValueError(
                 f"policy {str(zip_path)!r}: no card {str(path)!r} beside it; a model without its card is "
-                "incomplete (interrupted training?) or not written by train.py"
+                "incomplete (interrupted training?) or not written by train.py. A model you trained yourself on "
+                "a plain env: write its card with sma_gym_agents.PolicyCard(algo='SAC', env_id='SMATracking-v0', "
+                f"env_kwargs={{...}}).save({str(zip_path)!r}) (the algo and env it trained on, and the env's kwargs)"
             )
         values = read_json_object(path, "policy card")
         where = f"policy card {str(path)!r}"

@@ -252,6 +252,28 @@ def test_cli_evaluates_a_saved_agent_beside_the_baselines(tmp_path, capsys):
     assert {"PID", "tiny-agent"} <= {r["policy"] for r in records}
 
 
+def test_a_model_saved_by_sb3_alone_is_refused_with_how_to_write_its_card(tmp_path):
+    """A user who trained with stable-baselines3 directly (the README's SAC snippet) got
+    "not written by train.py" and no way on; the message now says how, and doing what it
+    says makes the model loadable by the harness."""
+    from stable_baselines3 import PPO
+
+    from sma_gym_agents import PolicyCard, load_policy
+
+    env = gym.make("sma_gym:SMATracking-v0")
+    model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
+    path = tmp_path / "mine.zip"
+    model.save(path)
+    with pytest.raises(ValueError, match=r"PolicyCard\(algo='SAC', env_id='SMATracking-v0'") as err:
+        load_policy(path)
+    assert f".save({str(path)!r})" in str(err.value)
+    PolicyCard(algo="PPO", env_id="SMATracking-v0", env_kwargs={}).save(path)
+    policy = load_policy(path)
+    obs, _ = env.reset(seed=0)
+    action, _ = policy.predict(obs, deterministic=True)
+    assert env.action_space.contains(np.asarray(action, dtype=np.float32))
+
+
 def test_cli_rejects_unknown_experiments_and_policies(capsys):
     assert main(["evaluate", "--experiments", "42"]) == 2
     assert "experiment" in capsys.readouterr().err
