@@ -284,6 +284,7 @@ def test_an_unknown_kwarg_lists_only_what_this_env_accepts():
     with pytest.raises(ValueError, match="unknown env kwargs") as err:
         gym.make_vec("sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="vector_entry_point", n_actuators=2)
     assert "'spread'" not in str(err.value) and "'model'" in str(err.value)
+    assert "'variant'" not in str(err.value)  # set by the entry point, not the user's to choose
 
 
 @pytest.mark.parametrize(

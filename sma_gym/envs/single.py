@@ -134,7 +134,8 @@ class Settings:
         choose (the multiplexed env's ``pwm_mode``). The condition kwargs (``None``: the
         default of :class:`Conditions`) are accepted by a randomised variant only.
         """
-        accepted = tuple(name for name in arguments if name not in ("self", "unknown", "__class__"))
+        # ``variant`` is the vector env's, set by its registered entry point, not a user's choice.
+        accepted = tuple(name for name in arguments if name not in ("self", "unknown", "__class__", "variant"))
         if not variant.randomised:
             # In the signature (shared by every variant) but refused here: not worth listing.
             accepted = tuple(name for name in accepted if name not in CONDITION_KWARGS)
