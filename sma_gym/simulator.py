@@ -232,6 +232,10 @@ def pack_params(
     return row
 
 
+_DUTY_EXPECTED = "expected finite values (values outside [0, 1] are clipped to the duty range)"
+"""What a non-finite duty is told: the only duty refused (out-of-range duty is clipped)."""
+
+
 class Simulator:
     """n SMA actuators advanced together by control steps of ``control_period_s``.
 
@@ -464,9 +468,7 @@ class Simulator:
         if type(duty) is float or type(duty) is int:
             # Fast path for one scalar (a single env calls this every control step).
             if not math.isfinite(duty):
-                raise ValueError(
-                    f"duty = {duty!r}: expected finite values (values outside [0, 1] are clipped to the duty range)"
-                )
+                raise ValueError(f"duty = {duty!r}: {_DUTY_EXPECTED}")
             if self.n == 1:
                 self._duty_buffer[0, 0] = duty
             else:
@@ -480,9 +482,7 @@ class Simulator:
             else:
                 raise ValueError(f"duty has shape {arr.shape}: expected a scalar or shape ({self.n},)")
             if not np.isfinite(self._duty_buffer).all():
-                raise ValueError(
-                    f"duty = {duty!r}: expected finite values (values outside [0, 1] are clipped to the duty range)"
-                )
+                raise ValueError(f"duty = {duty!r}: {_DUTY_EXPECTED}")
         self.step_unchecked(self._duty_buffer)
 
     def step_unchecked(self, duty_2d: np.ndarray, noise: np.ndarray | None = None) -> None:
@@ -530,9 +530,7 @@ class Simulator:
             raise ValueError(f"duty has shape {np.shape(duty)}: expected (n_steps,) or (n_steps, {self.n})")
         if not np.all(np.isfinite(arr)):
             bad = np.argwhere(~np.isfinite(arr))[0]
-            raise ValueError(
-                f"duty[{bad[0]}] = {arr[tuple(bad)]!r}: expected finite values (values outside [0, 1] are clipped to the duty range)"
-            )
+            raise ValueError(f"duty[{bad[0]}] = {arr[tuple(bad)]!r}: {_DUTY_EXPECTED}")
         names = list(dict.fromkeys(["time_s", *record]))
         fields = np.asarray(_fields_of(names, "record"), dtype=np.int64)
         n_steps = arr.shape[0]
