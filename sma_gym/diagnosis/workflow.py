@@ -1247,11 +1247,11 @@ def _best_reference(
     return _candidate(again, held_problem, n_eff)
 
 
-def _warm_without(ref: Candidate, name: str) -> dict[str, float]:
-    """Warm start for fitting effect ``name`` in another form: ``ref``'s values but the
-    effect's own, which start from the form's own starts (a value means something else in
+def _warm_without(ref: Candidate, *names: str) -> dict[str, float]:
+    """Warm start for fitting effects ``names`` in other forms: ``ref``'s values but those
+    effects' own, which start from the form's own starts (a value means something else in
     another form)."""
-    return {k: v for k, v in ref.fit.values_by_name().items() if not k.startswith(f"{name}.")}
+    return {k: v for k, v in ref.fit.values_by_name().items() if k.split(".", 1)[0] not in names}
 
 
 def _forms_label(changes: dict[str, str]) -> str:
@@ -1293,7 +1293,7 @@ def _form_references(
             if form == forms.get(name, "default"):
                 continue
             params = tuple(p for p in base_params if p.effect != name) + fitting.effect_parameters(name, form)
-            say(f"reference: {name} in its '{form}' form")
+            say(f"reference: {_forms_label({name: form})}")
             warm = _warm_without(ref, name)
             fit = problem.fit(
                 f"{name} ({form})", params, warm=warm, max_nfev=FORM_MAX_NFEV, sweep=REFIT_SWEEP, sweep_effect=name
@@ -1313,7 +1313,7 @@ def _form_references(
         params = tuple(p for p in base_params if p.effect not in changes) + tuple(
             p for n, f in changes.items() for p in fitting.effect_parameters(n, f)
         )
-        warm = {k: v for k, v in ref.fit.values_by_name().items() if k.split(".", 1)[0] not in changes}
+        warm = _warm_without(ref, *changes)
         label = _forms_label(changes)
         say(f"reference: {label}")
         fit = problem.fit(
