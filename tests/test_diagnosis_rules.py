@@ -219,6 +219,36 @@ def test_batched_simulations_give_the_same_residuals_bit_for_bit_on_any_number_o
             fitting.Problem(ModelConfig(), data, 1e-3, threads=bad)
 
 
+def test_a_fit_on_part_of_a_file_simulates_it_only_as_far_as_it_reads_and_gets_the_same_residuals(monkeypatch):
+    """A file without a held-out file is split (fitted part first): its fit reads nothing
+    after the split, so it simulates nothing after it; the model is causal, so the fitted
+    residuals are the same bit for bit, and the held-out part still simulates the whole file."""
+    from sma_gym.simulator import Simulator
+
+    trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=4.0, electrical=True, seed=2))
+    fit_mask, held_mask = workflow._split(trace)
+    fitted = fitting.prepare(trace, 1e-3, fit_mask)
+    held = fitting.prepare(trace, 1e-3, held_mask)
+    params = fitting.Problem(ModelConfig(), [fitted], 1e-3).nominal_parameters()
+    start = np.array([p.start for p in params])
+    lower, upper = np.array([p.lower for p in params]), np.array([p.upper for p in params])
+    points = [start, np.clip(start + 0.05 * (upper - lower), lower, upper)]
+    steps = []
+    run = Simulator.run
+    monkeypatch.setattr(Simulator, "run", lambda self, duty, **k: steps.append(len(duty)) or run(self, duty, **k))
+    for data, part in ((fitted, fit_mask), (held, held_mask)):
+        steps.clear()
+        batched = fitting.Problem(ModelConfig(), [data], 1e-3, threads=1).residual_matrix(params, points)
+        assert steps == [int(data.sample_steps[part].max()) + 1]
+        models, offsets = zip(*(fitting.apply(ModelConfig(), params, u) for u in points))
+        whole = fitting.residuals(fitting.simulate(models, offsets, data, 1e-3), data)
+        assert np.array_equal(batched, whole)
+    assert int(held.sample_steps[held_mask].max()) + 1 == len(held.duty)  # the held-out part ends with the file
+    assert int(fitted.sample_steps[fit_mask].max()) + 1 < 0.75 * len(fitted.duty)
+    cut = fitting.simulate([ModelConfig()], [0.0], fitted, 1e-3, used_only=True)["position"][:, 0]
+    assert np.isfinite(cut[fit_mask]).all() and np.isnan(cut[~fit_mask]).all()
+
+
 def _refit_problem():
     """A nominal refit far from its optimum (the two fits' tests below)."""
     trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=4.0, electrical=True, seed=3))
