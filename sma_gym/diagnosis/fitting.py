@@ -283,7 +283,8 @@ def simulate(
 
     ``used_only`` stops the simulation after the last sample that the data's mask (or its
     rest) uses; the later samples are then NaN. The model is causal, so the used samples
-    are the same bit for bit, and the fitted part of a split file (70 %) costs 70 % of it.
+    are the same bit for bit, and a fit on the first 70 % of a split file simulates 70 % of
+    it (the held-out part, at the file's end, still simulates the whole file).
     """
     duty = data.duty
     if used_only:
