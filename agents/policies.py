@@ -76,6 +76,15 @@ class ControllerPolicy:
         self._filter_cutoff_hz = filter_cutoff_hz
         self._controller: Controller | None = None
         self._index = {name: i for i, name in enumerate(self.feature_names)}
+        if "position" not in self._index and type(self).position_m is ControllerPolicy.position_m:
+            # Refused here, not at the first predict() (a new user's evaluation got that far).
+            raise ValueError(self._no_position())
+
+    def _no_position(self) -> str:
+        return (
+            f"{self.name}: the observation has no position feature ({self.feature_names}); "
+            "use SelfSensingPolicy with a resistance calibration"
+        )
 
     def reset(self) -> None:
         """Forget the controllers' state: call it after ``env.reset()`` in a loop of your own
@@ -85,10 +94,7 @@ class ControllerPolicy:
     def position_m(self, features: np.ndarray, scale: np.ndarray) -> np.ndarray:
         """Measured position [m] from the features (shape (batch, units, k))."""
         if "position" not in self._index:
-            raise ValueError(
-                f"{self.name}: the observation has no position feature ({self.feature_names}); "
-                "use SelfSensingPolicy with a resistance calibration"
-            )
+            raise ValueError(self._no_position())
         return features[..., self._index["position"]] * scale
 
     def predict(

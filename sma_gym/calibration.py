@@ -136,7 +136,7 @@ def calibrate_bench(fit_file: str = "step01.csv", check_file: str = "ramp01.csv"
 
     folder = find_real_data_dir()
     if folder is None:
-        raise ValueError("shared/data/real not found: run from the project next to ../shared")
+        raise ValueError("shared/data/real not found: run from the project next to ../shared, or set SMA_GYM_REAL_DATA")
     fit = load_trace(folder / fit_file)
     check = load_trace(folder / check_file)
     base = bench_05mm_ht()
@@ -211,7 +211,7 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
 
     where = Path(folder) if folder else find_real_data_dir()
     if where is None or not where.is_dir():
-        raise SystemExit("the shared real runs (../shared/data/real) are not on this machine")
+        raise SystemExit("the shared real runs (../shared/data/real, or $SMA_GYM_REAL_DATA) are not on this machine")
     traces = [load_trace(where / name) for name in REAL_BENCH_RUNS]
     nominal = ModelConfig(preset("bench-0.5mm-ht-datasheet"))
     result = diagnose(traces, [], nominal, max_rounds=max_rounds, progress=lambda m: print("twin:", m, flush=True))

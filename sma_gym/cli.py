@@ -14,6 +14,8 @@ that way in ``pyproject.toml``, because they run the report's controllers, which
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -21,6 +23,7 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
+from sma_gym._io import Terminated, sigterm_as_interrupt
 from sma_gym.extras import MissingExtraError, extra_error, install_hint, missing, require
 
 DEFAULT_DIAGNOSIS_MODEL = "standard"
@@ -86,6 +89,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     if args.model is not None and named is not None and args.model != named:
         print(f"sma-gym diagnose: note: --model {args.model!r} is used; the sidecars name {named!r}", file=sys.stderr)
     nominal = load_model(args.model or named or DEFAULT_DIAGNOSIS_MODEL)
+    _note_assumed_conditions([*fit, *held], nominal)
     outputs = CROSS_VALIDATION_OUTPUTS if args.cross_validate else None
     _require_out_free(args, out, fit, held, outputs)
     effects = None if args.effects is None else [e.strip() for e in args.effects.split(",")]
@@ -120,6 +124,26 @@ def _diagnose(args: argparse.Namespace) -> int:
 
 CROSS_VALIDATION_OUTPUTS = ("cross_validation.json", "cross_validation.md")
 """What ``sma-gym diagnose --cross-validate`` writes into ``--out``."""
+
+
+def _note_assumed_conditions(traces: Sequence[Any], nominal: Any) -> None:
+    """Say which conditions the files' sidecars leave to the model (a 24 V bench diagnosed
+    at the model's 10 V, with no word of it, was found by a new user): one line per set of
+    files that assume the same values."""
+    from sma_gym.diagnosis.fitting import assumed_conditions
+
+    groups: dict[tuple[tuple[str, float], ...], list[str]] = {}
+    for trace in traces:
+        assumed = tuple(assumed_conditions(nominal, trace).items())
+        if assumed:
+            groups.setdefault(assumed, []).append(Path(trace.path).name)
+    for assumed, names in groups.items():
+        values = ", ".join(f"{key} = {value:g}" for key, value in assumed)
+        print(
+            f"sma-gym diagnose: note: {', '.join(names)}: taken from the model {nominal.name!r}, as no sidecar "
+            f"(<file>.json, docs/diagnosis.md#measured-data) gives them: {values}",
+            file=sys.stderr,
+        )
 
 
 def _sidecar_model(traces: Sequence[Any]) -> str | None:
@@ -225,11 +249,12 @@ def _print_diagnosis(result: Any, paths: dict[str, Path], as_json: bool) -> None
     joiner = " + " if result.verdict == "effects" else " or "
     effect = result.effect if isinstance(result.effect, str) or result.effect is None else joiner.join(result.effect)
     print(f"verdict: {result.verdict}" + (f" ({effect})" if effect else ""))
+    from sma_gym.diagnosis.report import format_value
+
     for data in ("fit", "heldout"):
         for output, before in result.gap_before[data].items():
-            print(
-                f"  {data:8s} {output:10s} RMS {before:.4g} -> {result.gap_after[data].get(output, float('nan')):.4g}"
-            )
+            after = result.gap_after[data].get(output, float("nan"))
+            print(f"  {data:8s} {output:10s} RMS {format_value(before, output)} -> {format_value(after, output)}")
     if result.kept_as_given:
         print(
             "  note: the nominal refit predicted the held-out data worse than the model as given, so the "
@@ -253,7 +278,11 @@ def _bench_arguments(p: argparse.ArgumentParser) -> None:
 
 def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("files", nargs="+", help="measured traces to fit (CSV, see docs/diagnosis.md: measured data)")
-    p.add_argument("--heldout", nargs="+", help="measured traces never used for fitting")
+    p.add_argument(
+        "--heldout",
+        nargs="+",
+        help="measured traces never used for fitting (after the files: it takes every name that follows)",
+    )
     p.add_argument("--out", required=True, help="folder for the report, plots, JSON and corrected_model.json")
     p.add_argument(
         "--model",
@@ -436,8 +465,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if unknown and command.available:
         parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     try:
-        require(*command.needs, purpose=f"sma-gym {command.name}", extra=command.extra)
-        return int(args.func(args) or 0)
+        with sigterm_as_interrupt():
+            require(*command.needs, purpose=f"sma-gym {command.name}", extra=command.extra)
+            return int(args.func(args) or 0)
     except MissingExtraError as err:
         # The message starts with what needs the extra, which is this command's own prefix.
         print(f"sma-gym {args.command}: error: {str(err).removeprefix(f'sma-gym {args.command}: ')}", file=sys.stderr)
@@ -445,10 +475,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as err:
         print(f"sma-gym {args.command}: error: {err}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        # Ctrl-C is the user's choice, not a bug: no traceback; the shell's code for SIGINT.
-        print(f"sma-gym {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as err:
+        # Ctrl-C (or SIGTERM) is the user's choice, not a bug: no traceback; the shell's code
+        # for the signal.
+        stopped = "terminated" if isinstance(err, Terminated) else "interrupted"
+        print(f"sma-gym {args.command}: {stopped}", file=sys.stderr)
+        return Terminated.exit_code if isinstance(err, Terminated) else 130
+    except BrokenPipeError:
+        # The reader of stdout went away (``| head``): nothing is left to tell it, and a
+        # traceback would be noise. Outputs already written stay (they are written whole).
+        with contextlib.suppress(OSError, ValueError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+        return 128 + 13  # the shell's code for SIGPIPE
 
 
 if __name__ == "__main__":

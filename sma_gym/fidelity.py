@@ -1051,7 +1051,11 @@ def skipped_plots() -> dict[str, str]:
     """The plots this machine cannot draw, with the reason: the real bench's runs are not
     shipped with the package (``../shared/data/real`` beside a checkout)."""
     from sma_gym.data import REAL_BENCH_RUNS, real_bench_folder
+    from sma_gym.data.measured import REAL_DATA_ENV
 
     if real_bench_folder() is not None:
         return {}
-    return {BENCH_PLOT: f"the real bench's runs ({', '.join(REAL_BENCH_RUNS)}) are not in ../shared/data/real"}
+    return {
+        BENCH_PLOT: f"the real bench's runs ({', '.join(REAL_BENCH_RUNS)}) are not in ../shared/data/real; "
+        f"set {REAL_DATA_ENV} to their folder"
+    }

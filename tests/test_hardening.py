@@ -523,6 +523,90 @@ def test_ctrl_c_ends_a_command_with_a_line_not_a_traceback(tmp_path, capsys, mon
     assert list(tmp_path.iterdir()) == []
 
 
+def test_sigterm_ends_a_command_like_ctrl_c_and_leaves_no_folder_nor_lock(tmp_path):
+    """``timeout`` or a cluster scheduler stops a job with SIGTERM, whose default action ran
+    no cleanup: a diagnosis killed that way left its ``--out`` holding only the lock (found by
+    a new user). Now the command says so, exits 143 and removes the empty folder."""
+    import signal
+    import time
+
+    from sma_gym._io import LOCK_NAME
+    from sma_gym.cli import main
+
+    assert main(["synth", "--out", str(tmp_path / "fit.csv"), "--duration", "10"]) == 0
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "sma_gym", "diagnose", str(tmp_path / "fit.csv"), "--out", str(out), "--threads", "1"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while not (out / LOCK_NAME).exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert (out / LOCK_NAME).exists(), "the diagnosis never took its --out"
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == 143, err
+    assert err.rstrip().endswith("sma-gym diagnose: terminated") and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_a_sigterm_that_lands_inside_a_callback_from_c_is_sent_again():
+    """Python drops an exception raised inside a ctypes callback; numba's compiler runs
+    such callbacks while it loads a cached kernel, and one diagnosis in six stopped there
+    ran to its end with exit code 0."""
+    import ctypes
+    import signal
+    import time
+
+    from sma_gym._io import Terminated, sigterm_as_interrupt
+
+    @ctypes.CFUNCTYPE(None)
+    def from_c() -> None:
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.01)  # the handler runs here, inside the callback, and its exception is dropped
+
+    before = signal.getsignal(signal.SIGTERM), sys.unraisablehook
+    started = time.monotonic()
+    with pytest.raises(Terminated), sigterm_as_interrupt():
+        from_c()
+        time.sleep(10)  # the signal sent again ends this
+    assert time.monotonic() - started < 5
+    assert (signal.getsignal(signal.SIGTERM), sys.unraisablehook) == before
+
+
+def test_a_closed_stdout_ends_a_command_without_a_traceback(tmp_path, capsys, monkeypatch):
+    """``sma-gym diagnose ... | head`` printed a BrokenPipeError traceback once ``head`` had
+    read its lines; now the shell's code for SIGPIPE and nothing on stderr."""
+    import sma_gym.diagnosis.synth
+    from sma_gym.cli import main
+
+    def closed(*args, **kwargs):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(sma_gym.diagnosis.synth, "write", closed)
+    assert main(["synth", "--out", str(tmp_path / "s.csv"), "--duration", "5"]) == 141
+    assert capsys.readouterr().err == ""
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_sigterm_ends_train_py_like_ctrl_c(tmp_path, capsys, monkeypatch):
+    import sma_gym_agents.training.run as run_module
+    from sma_gym._io import Terminated
+    from sma_gym_agents.training.cli import main
+
+    def terminated(run, out, **kwargs):
+        raise Terminated("signal 15")
+
+    monkeypatch.setattr(run_module, "train_and_compare", terminated)
+    assert main(["--quick", "--no-progress", "--out", str(tmp_path / "never")]) == 143
+    assert capsys.readouterr().err.strip() == "train.py: terminated"
+
+
 def test_synth_actuator_seed_gives_another_run_of_the_same_actuator(tmp_path):
     """``--seed`` alone draws another actuator (the README's held-out file of the same wire was
     then another wire: its diagnosis came back "unexplained"); ``--actuator-seed K`` keeps the

@@ -30,6 +30,43 @@ def test_a_valid_file_with_sidecar_loads(tmp_path):
     assert digest(f) == before
 
 
+def test_diagnose_says_which_conditions_no_sidecar_gives_and_what_it_assumes(tmp_path, capsys):
+    """A 24 V bench diagnosed without its sidecar was diagnosed at the model's 10 V without a
+    word (found by a new user): the command names each condition it takes from the model."""
+    from sma_gym.cli import main
+    from sma_gym.data.measured import SIDECAR_KEYS
+    from sma_gym.diagnosis.fitting import SIDECAR_PARAMETERS, assumed_conditions
+    from sma_gym.diagnosis.synth import SynthSpec
+    from sma_gym.diagnosis.synth import write as write_synth
+    from sma_gym.model import ModelConfig, load_model
+
+    assert set(SIDECAR_PARAMETERS) == set(SIDECAR_KEYS)  # every condition sets a parameter
+    bench = load_model("bench-0.5mm-ht-datasheet")
+    bare = MeasuredTrace(path="x.csv", t=np.arange(3.0), duty=np.zeros(3), position=np.zeros(3))
+    assert assumed_conditions(bench, bare) == {
+        "supply_voltage_v": bench.actuator.driver.supply_voltage_v,
+        "wire_diameter_m": bench.actuator.wire.diameter_m,
+        "pwm_frequency_hz": bench.actuator.driver.pwm_frequency_hz,
+        "ambient_temperature_c": bench.actuator.convection.ambient_temperature_c,
+    }
+    given = dict(bare.__dict__, conditions={"supply_voltage_v": 24.0, "wire_diameter_m": 5e-4})
+    assert set(assumed_conditions(bench, MeasuredTrace(**given))) == {"pwm_frequency_hz", "ambient_temperature_c"}
+
+    path, _ = write_synth(SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, seed=1), tmp_path / "run.csv")
+    (tmp_path / "run.csv.json").unlink()
+    bare_run = tmp_path / "bare.csv"
+    bare_run.write_bytes(path.read_bytes())
+    # An unknown effect stops the command once the files and the model are read.
+    args = ["diagnose", str(path), str(bare_run), "--model", "bench-0.5mm-ht-datasheet", "--effects", "warp"]
+    assert main([*args, "--out", str(tmp_path / "d")]) == 2
+    notes = [line for line in capsys.readouterr().err.splitlines() if "taken from the model" in line]
+    assert len(notes) == 1 and "run.csv, bare.csv" in notes[0] and "'bench-0.5mm-ht-datasheet'" in notes[0]
+    assert f"supply_voltage_v = {bench.actuator.driver.supply_voltage_v:g}" in notes[0]
+    (tmp_path / "run.csv.json").write_text(json.dumps({key: lo for key, (lo, _) in SIDECAR_KEYS.items()}))
+    assert main([*args[:2], *args[3:], "--out", str(tmp_path / "d")]) == 2
+    assert "taken from the model" not in capsys.readouterr().err
+
+
 def test_every_problem_is_reported_with_file_row_and_column(tmp_path):
     f = write(
         tmp_path / "bad.csv",
@@ -148,3 +185,24 @@ def test_the_real_bench_files_load_when_present():
         trace = load_trace(folder / name)
         assert trace.duration_s == pytest.approx(49.99, abs=0.02)
         assert 0.015 < trace.position.max() < 0.018
+
+
+def test_the_real_data_folder_can_be_named_wherever_it_is(tmp_path, monkeypatch):
+    """A clone away from ``../shared`` found no real runs and said only that they were not in
+    ``../shared/data/real`` (found by a new user); ``$SMA_GYM_REAL_DATA`` names the folder."""
+    monkeypatch.setenv("SMA_GYM_REAL_DATA", str(tmp_path))
+    assert find_real_data_dir() == tmp_path
+    monkeypatch.setenv("SMA_GYM_REAL_DATA", str(tmp_path / "nowhere"))
+    with pytest.raises(ValueError, match="SMA_GYM_REAL_DATA = .*nowhere.*expected a folder"):
+        find_real_data_dir()
+
+
+def test_a_file_with_too_few_rows_is_told_one_minimum(tmp_path):
+    """A header-only file was told "expected at least 2" and the same file with two rows
+    "expected at least 20": the minimum of the command that loads it, both times."""
+    for text in ("t,duty,position\n", "t,duty,position\n0,0,0\n0.001,0,0\n"):
+        f = write(tmp_path / "short.csv", text)
+        with pytest.raises(MeasuredDataError, match="expected at least 20 "):
+            load_trace(f, min_rows=20)
+    with pytest.raises(MeasuredDataError, match=r"expected at least 2$"):
+        load_trace(write(tmp_path / "empty.csv", "t,duty,position\n"))

@@ -264,3 +264,37 @@ def test_a_run_json_from_before_the_residual_filter_reads_as_no_filter(tmp_path)
     assert finished_seeds(run, [0], tmp_path) == [0]
     with pytest.raises(ValueError, match=r"residual_filter_s: 0.0 there, 0.1 now"):
         finished_seeds(replace(run, residual_filter_s=0.1), [0], tmp_path)
+
+
+def test_sigterm_stops_a_sweep_and_its_seeds_at_once(tmp_path, monkeypatch, capsys):
+    """A scheduler's SIGTERM reaches the sweep's process, not its seeds' children: the pool's
+    threads then waited for every child to finish its run (here 60 s; a real seed, hours).
+    Now the children are terminated, no queued seed starts, and ``--resume`` is offered."""
+    import os
+    import signal
+    import threading
+    import time
+
+    started = tmp_path / "started"
+    started.mkdir()
+    child = "import sys, time, pathlib; pathlib.Path(sys.argv[1], sys.argv[2]).write_text(''); time.sleep(60)"
+    # Each child writes its seed's argv tail into ``started`` and sleeps.
+    monkeypatch.setattr(
+        sweep_module,
+        "seed_command",
+        lambda argv: [sys.executable, "-c", child, str(started), argv[argv.index("--seed") + 1]],
+    )
+
+    def stop_once_both_run() -> None:  # the handler is in place once the sweep has started them
+        deadline = time.monotonic() + 120
+        while len(list(started.iterdir())) < 2 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        if len(list(started.iterdir())) >= 2:
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    threading.Thread(target=stop_once_both_run, daemon=True).start()
+    begun = time.monotonic()
+    code = main(["--seeds", "3", "--workers", "2", "--quick", "--out", str(tmp_path / "sweep")])
+    assert code == 143 and time.monotonic() - begun < 30
+    assert "terminated; --resume --out" in capsys.readouterr().err
+    assert sorted(p.name for p in started.iterdir()) == ["0", "1"]  # the queued third never started

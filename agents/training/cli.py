@@ -6,6 +6,7 @@ import datetime
 import sys
 from pathlib import Path
 
+from sma_gym._io import Terminated, sigterm_as_interrupt
 from sma_gym.extras import MissingExtraError, require
 from sma_gym_agents.training.config import ROOT, RunConfig, parse_args
 
@@ -27,37 +28,40 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = parse_args(argv)  # --help works without the extra
         require(*TRAIN_NEEDS, purpose="train.py", extra="train")
-        if args.seeds is not None or args.workers is not None or args.resume:
-            from sma_gym_agents.training.sweep import check_sweep_args, sweep_main
+        with sigterm_as_interrupt():
+            if args.seeds is not None or args.workers is not None or args.resume:
+                from sma_gym_agents.training.sweep import check_sweep_args, sweep_main
 
-            check_sweep_args(args)
-            sweep, out = True, Path(args.out) if args.out else None
-            return sweep_main(args, RunConfig.from_args(args))
-        run = RunConfig.from_args(args)
-        out = Path(args.out) if args.out else default_out(run)
-        from sma_gym_agents.training.run import train_and_compare
+                check_sweep_args(args)
+                sweep, out = True, Path(args.out) if args.out else None
+                return sweep_main(args, RunConfig.from_args(args))
+            run = RunConfig.from_args(args)
+            out = Path(args.out) if args.out else default_out(run)
+            from sma_gym_agents.training.run import train_and_compare
 
-        table, _ = train_and_compare(run, out, overwrite=args.overwrite, progress=not args.no_progress)
+            table, _ = train_and_compare(run, out, overwrite=args.overwrite, progress=not args.no_progress)
     except (ValueError, MissingExtraError) as err:
         # A missing extra's message starts with what needs it ("train.py: "), the prefix here.
         print(f"train.py: error: {str(err).removeprefix('train.py: ')}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        # Ctrl-C is the user's choice, not a bug: no traceback; the shell's code for SIGINT.
-        # The checkpoints written so far stay (they are worth keeping); without results.md
-        # the folder is never taken for a finished run.
+    except KeyboardInterrupt as err:
+        # Ctrl-C (or SIGTERM: a scheduler's stop) is the user's choice, not a bug: no
+        # traceback; the shell's code for the signal. The checkpoints written so far stay
+        # (they are worth keeping); without results.md the folder is never taken for a
+        # finished run.
+        stopped = "terminated" if isinstance(err, Terminated) else "interrupted"
         if out is None or not out.exists():
-            print("train.py: interrupted", file=sys.stderr)
+            print(f"train.py: {stopped}", file=sys.stderr)
         elif sweep:
-            print(f"train.py: interrupted; --resume --out {out} continues the sweep", file=sys.stderr)
+            print(f"train.py: {stopped}; --resume --out {out} continues the sweep", file=sys.stderr)
         else:
             print(
-                f"train.py: interrupted; {out} keeps the checkpoints written so far (checkpoints/, "
+                f"train.py: {stopped}; {out} keeps the checkpoints written so far (checkpoints/, "
                 "best_model.zip if validation had run) but no final model or results.md; "
                 "train into a new --out or pass --overwrite to start again",
                 file=sys.stderr,
             )
-        return 130
+        return Terminated.exit_code if isinstance(err, Terminated) else 130
     print(table)
     print(f"run folder: {out}")
     return 0

@@ -20,11 +20,14 @@ kept and only the others run; ``--seeds`` larger than before extends a finished 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import json
 import os
+import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -33,6 +36,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sma_gym._io import Terminated, sigterm_as_interrupt
 from sma_gym._jit import available_cores
 from sma_gym_agents.training.config import ROOT, RunConfig, build_parser, parse_args
 
@@ -203,7 +207,42 @@ def seed_command(argv: list[str]) -> list[str]:
     return [sys.executable, "-m", "sma_gym_agents.training", *argv]
 
 
-def _run_seed_process(argv: list[str], log: Path, threads: int) -> int:
+class _Children:
+    """The seeds' child processes, stopped together when the sweep is stopped.
+
+    Ctrl-C in a terminal reaches the whole process group, children included; SIGTERM from
+    a scheduler or ``timeout`` reaches this process alone, and its pool's threads then
+    waited for the children to finish their runs (hours) before the sweep could end."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._live: set[subprocess.Popen] = set()
+        self.stopping = False
+
+    def run(self, command: list[str], **kwargs: Any) -> int:
+        """Run ``command`` to its end (``subprocess.Popen``'s ``kwargs``); its exit code.
+        Once stopping, nothing new starts: the code is then SIGTERM's, as if it had run."""
+        with self._lock:
+            if self.stopping:
+                return 128 + signal.SIGTERM
+            child = subprocess.Popen(command, **kwargs)
+            self._live.add(child)
+        try:
+            return child.wait()
+        finally:
+            with self._lock:
+                self._live.discard(child)
+
+    def stop(self) -> None:
+        """Terminate every live child (each ends as after Ctrl-C) and start no more."""
+        with self._lock:
+            self.stopping = True
+            for child in self._live:
+                with contextlib.suppress(ProcessLookupError):
+                    child.terminate()
+
+
+def _run_seed_process(argv: list[str], log: Path, threads: int, children: _Children) -> int:
     """One seed's run as a child process, its output in ``log``; the exit code."""
     env = dict(os.environ)
     # One thread per run: the runs are the parallelism (numba and BLAS pools would
@@ -212,9 +251,7 @@ def _run_seed_process(argv: list[str], log: Path, threads: int) -> int:
         env.setdefault(name, str(threads))
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
     with log.open("w") as handle:
-        return subprocess.run(
-            seed_command(argv), stdout=handle, stderr=subprocess.STDOUT, env=env, check=False
-        ).returncode
+        return children.run(seed_command(argv), stdout=handle, stderr=subprocess.STDOUT, env=env)
 
 
 def run_seed(options: list[str], seed: int, out: str | Path) -> dict[str, Any]:
@@ -317,13 +354,14 @@ def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int
         print(f"train.py: seed {seed} kept (finished in {out / f'seed-{seed}'} before)", flush=True)
     (out / "logs").mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
+    children = _Children()
 
     def one(seed: int) -> int:
         argv = seed_argv(parser, args, seed, out / f"seed-{seed}")
         if (out / f"seed-{seed}").exists():
             # Only with --resume: an interrupted or failed run of this seed, started over.
             argv.append("--overwrite")
-        code = _run_seed_process(argv, out / "logs" / f"seed-{seed}.log", run.threads)
+        code = _run_seed_process(argv, out / "logs" / f"seed-{seed}.log", run.threads, children)
         print(
             f"train.py: seed {seed} {'done' if code == 0 else f'FAILED (exit {code}, see logs/seed-{seed}.log)'}",
             flush=True,
@@ -333,7 +371,12 @@ def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int
     # Threads only wait on the child processes, which do the work.
     to_run = [s for s in seeds if s not in kept]
     with ThreadPoolExecutor(max_workers=max(1, min(args.workers, len(to_run)))) as pool:
-        codes = dict(zip(to_run, pool.map(one, to_run), strict=True))
+        try:
+            codes = dict(zip(to_run, pool.map(one, to_run), strict=True))
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the pool's exit waits for its threads
+            pool.shutdown(wait=False, cancel_futures=True)
+            children.stop()
+            raise
     elapsed = time.perf_counter() - started
     failed = [s for s, code in codes.items() if code != 0]
     done = {s: read_goals(out / f"seed-{s}") for s in seeds if s not in failed}
@@ -450,10 +493,15 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = parse_args(argv)
         check_sweep_args(args)
-        return sweep_main(args, RunConfig.from_args(args))
+        with sigterm_as_interrupt():
+            return sweep_main(args, RunConfig.from_args(args))
     except ValueError as err:
         print(f"train.py: error: {err}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt as err:  # as train.py's (a traceback before 2026-12-06)
+        stopped = "terminated" if isinstance(err, Terminated) else "interrupted"
+        print(f"train.py: {stopped}; --resume with the same options continues the sweep", file=sys.stderr)
+        return Terminated.exit_code if isinstance(err, Terminated) else 130
 
 
 if __name__ == "__main__":

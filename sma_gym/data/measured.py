@@ -38,6 +38,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -216,13 +217,15 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
     if problems:
         raise MeasuredDataError(problems)
     data_rows = rows[1:]
+    # One minimum in both messages (a header-only file was told 2, then the same file with
+    # two rows 20).
+    why = (
+        "" if min_rows <= 2 else " (the diagnosis fits more than ten samples after holding out the last 30 % of a file)"
+    )
     if len(data_rows) < 2:
-        raise MeasuredDataError([f"{where}: {len(data_rows)} data row(s), expected at least 2"])
+        raise MeasuredDataError([f"{where}: {len(data_rows)} data row(s), expected at least {max(min_rows, 2)}{why}"])
     if len(data_rows) < min_rows:  # reported with the file's other problems
-        problems.append(
-            f"{where}: {len(data_rows)} data row(s), expected at least {min_rows} "
-            "(the diagnosis fits more than ten samples after holding out the last 30 % of a file)"
-        )
+        problems.append(f"{where}: {len(data_rows)} data row(s), expected at least {min_rows}{why}")
     columns: dict[str, np.ndarray] = {name: np.full(len(data_rows), math.nan) for name in header}
     reported = {name: np.zeros(len(data_rows), dtype=bool) for name in header}
     # As the value checks: the first few of a kind are named, the rest counted (a file of
@@ -463,8 +466,21 @@ def real_bench_folder() -> Path | None:
     return folder
 
 
+REAL_DATA_ENV = "SMA_GYM_REAL_DATA"
+"""The environment variable that names the real-data folder wherever it is (a clone away
+from ``../shared`` does not find it otherwise)."""
+
+
 def find_real_data_dir() -> Path | None:
-    """The shared real-data folder (``../shared/data/real`` from the project), if present."""
+    """The shared real-data folder: ``$SMA_GYM_REAL_DATA`` if set (it must be a folder), else
+    ``../shared/data/real`` from the working directory or the package, if present."""
+    named = os.environ.get(REAL_DATA_ENV)
+    if named:
+        if not Path(named).is_dir():
+            raise ValueError(
+                f"{REAL_DATA_ENV} = {named!r}: expected a folder holding the bench's runs (e.g. step01.csv)"
+            )
+        return Path(named)
     here = Path(__file__).resolve()
     for parent in [Path.cwd(), *here.parents]:
         candidate = parent.parent / "shared" / "data" / "real"

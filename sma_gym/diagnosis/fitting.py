@@ -257,19 +257,31 @@ def prepare(trace: MeasuredTrace, control_period_s: float, mask: np.ndarray | No
     return TraceData(trace, np.ascontiguousarray(duty), np.clip(steps, -1, len(duty) - 1), outputs, noise, m, rest)
 
 
+SIDECAR_PARAMETERS = {
+    "supply_voltage_v": "driver.supply_voltage_v",
+    "wire_diameter_m": "wire.diameter_m",
+    "pwm_frequency_hz": "driver.pwm_frequency_hz",
+    "ambient_temperature_c": "convection.ambient_temperature_c",
+}
+"""Each numeric sidecar condition (``sma_gym.data.measured.SIDECAR_KEYS``) and the model
+parameter it sets."""
+
+
 def model_for_trace(model: ModelConfig, trace: MeasuredTrace) -> ModelConfig:
     """Apply the trace's sidecar conditions (supply, diameter, PWM, ambient) to a model."""
-    c = trace.conditions
-    changes = {}
-    if "supply_voltage_v" in c:
-        changes["driver.supply_voltage_v"] = c["supply_voltage_v"]
-    if "wire_diameter_m" in c:
-        changes["wire.diameter_m"] = c["wire_diameter_m"]
-    if "pwm_frequency_hz" in c:
-        changes["driver.pwm_frequency_hz"] = c["pwm_frequency_hz"]
-    if "ambient_temperature_c" in c:
-        changes["convection.ambient_temperature_c"] = c["ambient_temperature_c"]
+    changes = {path: trace.conditions[key] for key, path in SIDECAR_PARAMETERS.items() if key in trace.conditions}
     return model.with_actuator(**changes) if changes else model
+
+
+def assumed_conditions(model: ModelConfig, trace: MeasuredTrace) -> dict[str, float]:
+    """The conditions the trace's sidecar does not give, as ``model`` sets them (what a
+    diagnosis of the trace assumes)."""
+    assumed = {}
+    for key, path in SIDECAR_PARAMETERS.items():
+        if key not in trace.conditions:
+            group, name = path.split(".")
+            assumed[key] = float(getattr(getattr(model.actuator, group), name))
+    return assumed
 
 
 def simulate(

@@ -21,7 +21,8 @@ from sma_gym.provenance import provenance
 _SCALE = {"position": (1e3, "mm"), "resistance": (1.0, "ohm"), "current": (1.0, "A"), "voltage": (1.0, "V")}
 
 
-def _fmt(value: float, output: str) -> str:
+def format_value(value: float, output: str) -> str:
+    """An output's value in the unit the reports show it in (position in mm), with the unit."""
     scale, unit = _SCALE[output]
     return f"{value * scale:.4g} {unit}"
 
@@ -74,7 +75,7 @@ def write_report(
             else ""
         ),
         "",
-        "## The gap (RMS error, SI units)",
+        "## The gap (RMS error)",
         "",
         "| data | output | nominal model | nominal refit only | corrected model | shrink |",
         "|---|---|---|---|---|---|",
@@ -85,11 +86,12 @@ def write_report(
             refit = result.gap_nominal_refit[data].get(output, math.nan)
             shrink = 1.0 - after / before if before > 0 else 0.0
             lines.append(
-                f"| {data} | {output} | {_fmt(before, output)} | {_fmt(refit, output)} | {_fmt(after, output)} | {shrink * 100:.0f} % |"
+                f"| {data} | {output} | {format_value(before, output)} | {format_value(refit, output)} | {format_value(after, output)} | {shrink * 100:.0f} % |"
             )
     lines += [
         "",
-        "Noise (robust estimate from the data): " + ", ".join(f"{k} {_fmt(v, k)}" for k, v in result.noise.items()),
+        "Noise (robust estimate from the data): "
+        + ", ".join(f"{k} {format_value(v, k)}" for k, v in result.noise.items()),
         "",
     ]
     if result.separating_experiment and verdict != "ambiguous":
@@ -130,14 +132,16 @@ def write_report(
             ]
             for label, st in list(regimes.items())[:8]:
                 lines.append(
-                    f"| {label} | {st['fraction_of_samples'] * 100:.0f} % | {st['share_of_squared_error'] * 100:.0f} % | {_fmt(st['rms'], output)} |"
+                    f"| {label} | {st['fraction_of_samples'] * 100:.0f} % | {st['share_of_squared_error'] * 100:.0f} % | {format_value(st['rms'], output)} |"
                 )
             windows = entry["windows"].get(output, [])
             if windows:
                 lines.append("")
                 lines.append(
                     "Worst 1 s windows: "
-                    + ", ".join(f"{w['start_s']:.0f}-{w['end_s']:.0f} s ({_fmt(w['rms'], output)})" for w in windows)
+                    + ", ".join(
+                        f"{w['start_s']:.0f}-{w['end_s']:.0f} s ({format_value(w['rms'], output)})" for w in windows
+                    )
                 )
             lines.append("")
     lines += ["## Plots", ""] + [f"![{p.stem}]({p.name})" for p in plots]
@@ -187,7 +191,7 @@ def _round_lines(result: Diagnosis) -> list[str]:
         bounds = "; ".join(r["parameters_at_bounds"]) or "none"
         lines.append(
             f"| {r['round']} | {r['verdict']} | {effect or ''} | {r['nominal_refit_heldout_normalised_rms']:.3g} -> "
-            f"{r['heldout_normalised_rms']:.3g} | {_fmt(position, 'position')} | {bounds} |"
+            f"{r['heldout_normalised_rms']:.3g} | {format_value(position, 'position')} | {bounds} |"
         )
     return lines + [""]
 
@@ -203,7 +207,7 @@ def _file_lines(result: Diagnosis) -> list[str]:
         for name, gaps in files.items():
             after = result.gap_by_file["corrected"][label][name].get("position", math.nan)
             lines.append(
-                f"| {label} | {name} | {_fmt(gaps.get('position', math.nan), 'position')} | {_fmt(after, 'position')} |"
+                f"| {label} | {name} | {format_value(gaps.get('position', math.nan), 'position')} | {format_value(after, 'position')} |"
             )
     return lines + [""]
 
