@@ -112,7 +112,9 @@ def _missing_extra(purpose: str, absent: list[str], extra: str | None) -> Missin
     names = ", ".join(DISTRIBUTION_OF_MODULE.get(m, m) for m in absent)
     hint = install_hint(absent, extra)
     return MissingExtraError(
-        f"{purpose}: {names} not installed (the lean install leaves it out): {hint}", absent[0], hint
+        f"{purpose}: {names} not installed (the lean install leaves {'them' if len(absent) > 1 else 'it'} out): {hint}",
+        absent[0],
+        hint,
     )
 
 

@@ -61,7 +61,8 @@ def write_report(
         headline,
         "",
         f"Nominal model: `{nominal.name}`. Fitted: {', '.join(t.name for t in fit_traces)}. Held out: {result.held_out}.",
-        f"Corrected model: `corrected_model.json` (`gymnasium.make(id, model='corrected_model.json')`). Took {result.seconds:.0f} s."
+        f"Corrected model: `corrected_model.json` (`gymnasium.make(id, model={str(out / 'corrected_model.json')!r})` "
+        f"from where the command ran). Took {result.seconds:.0f} s."
         + (
             f" It also carries `{result.carried}`, the best held out of the last round's ambiguous candidates"
             " (not named as found)."

@@ -357,7 +357,7 @@ def diagnose(
     if heldout_traces:
         fit_data = [fitting.prepare(t, control_period_s) for t in fit_traces]
         held_data = [fitting.prepare(t, control_period_s) for t in heldout_traces]
-        held_note = "files: " + ", ".join(t.name for t in heldout_traces)
+        held_note = "the files " + ", ".join(t.name for t in heldout_traces)
     else:
         fit_data, held_data = [], []
         for t in fit_traces:
