@@ -49,6 +49,7 @@ __all__ = [
     "remove_outputs",
     "sha256_file",
     "sigterm_as_interrupt",
+    "stopped",
     "write_bytes",
     "write_json",
     "write_text",
@@ -342,6 +343,12 @@ class Terminated(KeyboardInterrupt):
 
     exit_code = 128 + signal.SIGTERM
     """143: what a shell reports for a process ended by SIGTERM."""
+
+
+def stopped(err: KeyboardInterrupt) -> tuple[str, int]:
+    """How a command stopped by ``err`` says so and the exit code it returns: the shell's
+    for the signal (``("terminated", 143)`` for SIGTERM, ``("interrupted", 130)`` for Ctrl-C)."""
+    return ("terminated", Terminated.exit_code) if isinstance(err, Terminated) else ("interrupted", 130)
 
 
 @contextlib.contextmanager

@@ -23,7 +23,7 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
-from sma_gym._io import Terminated, sigterm_as_interrupt
+from sma_gym._io import sigterm_as_interrupt, stopped
 from sma_gym.extras import MissingExtraError, extra_error, install_hint, missing, require
 
 DEFAULT_DIAGNOSIS_MODEL = "standard"
@@ -478,9 +478,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt as err:
         # Ctrl-C (or SIGTERM) is the user's choice, not a bug: no traceback; the shell's code
         # for the signal.
-        stopped = "terminated" if isinstance(err, Terminated) else "interrupted"
-        print(f"sma-gym {args.command}: {stopped}", file=sys.stderr)
-        return Terminated.exit_code if isinstance(err, Terminated) else 130
+        how, code = stopped(err)
+        print(f"sma-gym {args.command}: {how}", file=sys.stderr)
+        return code
     except BrokenPipeError:
         # The reader of stdout went away (``| head``): nothing is left to tell it, and a
         # traceback would be noise. Outputs already written stay (they are written whole).

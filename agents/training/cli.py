@@ -6,7 +6,7 @@ import datetime
 import sys
 from pathlib import Path
 
-from sma_gym._io import Terminated, sigterm_as_interrupt
+from sma_gym._io import sigterm_as_interrupt, stopped
 from sma_gym.extras import MissingExtraError, require
 from sma_gym_agents.training.config import ROOT, RunConfig, parse_args
 
@@ -49,19 +49,19 @@ def main(argv: list[str] | None = None) -> int:
         # traceback; the shell's code for the signal. The checkpoints written so far stay
         # (they are worth keeping); without results.md the folder is never taken for a
         # finished run.
-        stopped = "terminated" if isinstance(err, Terminated) else "interrupted"
+        how, code = stopped(err)
         if out is None or not out.exists():
-            print(f"train.py: {stopped}", file=sys.stderr)
+            print(f"train.py: {how}", file=sys.stderr)
         elif sweep:
-            print(f"train.py: {stopped}; --resume --out {out} continues the sweep", file=sys.stderr)
+            print(f"train.py: {how}; --resume --out {out} continues the sweep", file=sys.stderr)
         else:
             print(
-                f"train.py: {stopped}; {out} keeps the checkpoints written so far (checkpoints/, "
+                f"train.py: {how}; {out} keeps the checkpoints written so far (checkpoints/, "
                 "best_model.zip if validation had run) but no final model or results.md; "
                 "train into a new --out or pass --overwrite to start again",
                 file=sys.stderr,
             )
-        return Terminated.exit_code if isinstance(err, Terminated) else 130
+        return code
     print(table)
     print(f"run folder: {out}")
     return 0

@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sma_gym._io import Terminated, sigterm_as_interrupt
+from sma_gym._io import sigterm_as_interrupt, stopped
 from sma_gym._jit import available_cores
 from sma_gym_agents.training.config import ROOT, RunConfig, build_parser, parse_args
 
@@ -499,9 +499,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"train.py: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as err:  # as train.py's (a traceback before 2026-12-06)
-        stopped = "terminated" if isinstance(err, Terminated) else "interrupted"
-        print(f"train.py: {stopped}; --resume with the same options continues the sweep", file=sys.stderr)
-        return Terminated.exit_code if isinstance(err, Terminated) else 130
+        how, code = stopped(err)
+        print(f"train.py: {how}; --resume with the same options continues the sweep", file=sys.stderr)
+        return code
 
 
 if __name__ == "__main__":
