@@ -132,11 +132,12 @@ def calibrate_bench(fit_file: str = "step01.csv", check_file: str = "ramp01.csv"
     from scipy.optimize import least_squares
 
     from sma_gym.data import find_real_data_dir, load_trace
+    from sma_gym.data.measured import REAL_DATA_ENV
     from sma_gym.params import bench_05mm_ht
 
     folder = find_real_data_dir()
     if folder is None:
-        raise ValueError("shared/data/real not found: run from the project next to ../shared, or set SMA_GYM_REAL_DATA")
+        raise ValueError(f"shared/data/real not found: run from the project next to ../shared, or set {REAL_DATA_ENV}")
     fit = load_trace(folder / fit_file)
     check = load_trace(folder / check_file)
     base = bench_05mm_ht()
@@ -206,12 +207,13 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
     from pathlib import Path
 
     from sma_gym.data import REAL_BENCH_RUNS, find_real_data_dir, load_trace
+    from sma_gym.data.measured import REAL_DATA_ENV
     from sma_gym.diagnosis import diagnose
     from sma_gym.models import twin_path
 
     where = Path(folder) if folder else find_real_data_dir()
     if where is None or not where.is_dir():
-        raise SystemExit("the shared real runs (../shared/data/real, or $SMA_GYM_REAL_DATA) are not on this machine")
+        raise SystemExit(f"the shared real runs (../shared/data/real, or ${REAL_DATA_ENV}) are not on this machine")
     traces = [load_trace(where / name) for name in REAL_BENCH_RUNS]
     nominal = ModelConfig(preset("bench-0.5mm-ht-datasheet"))
     result = diagnose(traces, [], nominal, max_rounds=max_rounds, progress=lambda m: print("twin:", m, flush=True))
