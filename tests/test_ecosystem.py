@@ -117,6 +117,49 @@ def test_vector_entry_point_accepts_render_mode_and_renders_each_sub_env():
         native(render_mode="human")
 
 
+def test_sb3_render_tiles_the_native_vector_envs_frames():
+    """SB3's ``render()`` (and ``VecVideoRecorder``) tile ``get_images()``; the adapter gave
+    ``None`` for each sub-env, so they failed inside SB3's ``tile_images``."""
+    venv = SB3VecEnv(native(n=2, render_mode="rgb_array"))
+    venv.reset()
+    venv.step(np.zeros((2, 1), np.float32))
+    assert venv.render().shape == (1280, 640, 3)  # two 640x640 frames, as DummyVecEnv tiles them
+    assert SB3VecEnv(native(n=2)).get_images() == [None, None]
+
+
+@pytest.mark.parametrize("mode", ["sync", "vector_entry_point"])
+@pytest.mark.parametrize(("given", "ends_after"), [(None, 1000), (-1, None), (7, 7)])
+def test_make_vec_truncates_alike_in_every_vectorization_mode(mode, given, ends_after):
+    """As ``gym.make``: ``None`` is the registered 1000 steps, ``-1`` never (the native env
+    took ``None`` as never, so the mode decided the episode's length)."""
+    venv = gym.make_vec("sma_gym:SMATracking-v0", 1, vectorization_mode=mode, max_episode_steps=given)
+    venv.reset(seed=0)
+    steps = 0
+    while steps < 1100:
+        *_, terminated, truncated, _ = venv.step(np.zeros((1, 1), np.float32))
+        steps += 1
+        if terminated[0] or truncated[0]:
+            assert truncated[0] and not terminated[0]
+            break
+    assert (steps if steps < 1100 else None) == ends_after
+
+
+def test_an_env_that_has_rendered_can_still_be_copied_and_pickled():
+    import copy
+    import pickle
+
+    for env in (gym.make("sma_gym:SMATracking-v0", render_mode="rgb_array"), native(n=2, render_mode="rgb_array")):
+        env.reset(seed=0)
+        env.step(env.action_space.sample())
+        env.render()
+        twin = copy.deepcopy(env)
+        pickle.loads(pickle.dumps(env))  # matplotlib's canvas could not be pickled
+        action = env.action_space.sample()
+        assert np.array_equal(env.step(action)[0], twin.step(action)[0])
+        frame = twin.render()
+        assert (frame[0] if isinstance(frame, tuple) else frame).shape == (640, 640, 3)
+
+
 # --- item 4: info is flat, fixed-shape and JSON-serialisable ------------------------------------------
 
 

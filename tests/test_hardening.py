@@ -1292,6 +1292,18 @@ def test_a_native_vector_env_refuses_a_step_or_a_reference_before_its_first_rese
     venv.step(venv.action_space.sample())
 
 
+@pytest.mark.parametrize("env_id", ["SMATracking-v0", "SMARobust-v0", "SMAMultiplexed-v0"])
+def test_a_single_env_refuses_a_step_before_its_first_reset_without_gymnasiums_wrapper(env_id):
+    import gymnasium as gym
+    from gymnasium.error import ResetNeeded
+
+    env = gym.make(f"sma_gym:{env_id}").unwrapped  # OrderEnforcing is a wrapper: gone here
+    with pytest.raises(ResetNeeded, match="never reset: call reset"):
+        env.step(env.action_space.sample())  # ran against a zero reference before
+    env.reset(seed=0)
+    env.step(env.action_space.sample())
+
+
 @pytest.mark.parametrize("options", [["reference"], "report-step", 3])
 def test_reset_options_that_are_not_a_dict_are_refused_by_name(options):
     import gymnasium as gym

@@ -152,6 +152,10 @@ def test_without_an_extra_each_command_names_the_extra_to_install():
         except ModuleNotFoundError as e:
             out["render"] = [type(e).__name__, str(e)]
         try:
+            gym.make_vec("sma_gym:SMATracking-v0", 2, vectorization_mode="vector_entry_point", render_mode="rgb_array")
+        except ModuleNotFoundError as e:
+            out["vector_render"] = [type(e).__name__, str(e)]  # at make, not at the first render()
+        try:
             import sma_gym.envs.sb3  # noqa: F401
         except ModuleNotFoundError as e:
             out["sb3"] = [type(e).__name__, str(e)]
@@ -172,6 +176,7 @@ def test_without_an_extra_each_command_names_the_extra_to_install():
     assert result["train_help"] == [0, True], "train.py --help works before the train extra is installed"
     assert result["render"] == ["MissingExtraError", result["render"][1]]
     assert re.search(_hint("plots"), result["render"][1])
+    assert result["vector_render"][0] == "MissingExtraError" and re.search(_hint("plots"), result["vector_render"][1])
     assert result["sb3"][0] == "MissingExtraError" and re.search(_hint("train"), result["sb3"][1])
     assert not (ROOT / "nowhere").exists(), "a missing extra is reported before any output is written"
 

@@ -123,6 +123,11 @@ MODEL_CHANGE = """
       results. 0.2's minor loops, onset and energy come back with a `model` whose wire has
       `minor_loop_law="play"`, `transformation_spread_k=0` and `latent_heat_j_kg=0` (not
       bit for bit: h0 and the resistivity were calibrated with the new terms).
+    * main (unreleased): `step()` before the first `reset()` raises `ResetNeeded` also
+      on the class built directly or stepped through `env.unwrapped` (it ran an episode
+      without a reference); through `make_vec`, `max_episode_steps=None` is the registered
+      1000 and `-1` never, as in `gym.make`, in every vectorization mode (the native
+      vector env took `None` as never).
     """
 
 ROBUST_MODEL_CHECK = """

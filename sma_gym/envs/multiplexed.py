@@ -29,7 +29,8 @@ from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs import references as refs
 from sma_gym.envs.render import EpisodeRendering
 from sma_gym.envs.single import TRACKING, Settings, SMAEnv, keyword_settings, spell_out_settings, with_settings
-from sma_gym.envs.vector import BUILT_FROM, UnstartedEnvs, reset_arguments
+from sma_gym.envs.task import UnstartedEnvs
+from sma_gym.envs.vector import BUILT_FROM, reset_arguments
 from sma_gym.simulator import Simulator
 
 DEFAULT_N_ACTUATORS = 4
@@ -180,6 +181,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         self._term = np.zeros(self.n, dtype=np.bool_)
         self._ref = np.zeros(self.n)
         self._duty = np.zeros((1, self.n))
+        self._unstarted = UnstartedEnvs(1, vector=False)
         self._evaluate = self.task.bind(self.sim, self._actuators, self._obs, self._reward, self._term, self._ref)
 
     def duty_for(self, actions: np.ndarray) -> np.ndarray:
@@ -211,6 +213,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         for j in range(self.n):
             self.task.reset_actuator(j, self.sim)
         self._evaluate()
+        self._unstarted.started()
         self._start_rendering()
         return self._obs.reshape(-1).copy(), self._info()
 
@@ -226,6 +229,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         return self.task.describe_references()
 
     def step(self, action):
+        self._unstarted.require_none()
         a = require_action(action, self.n)
         duty = self.duty_for(a)
         if self.scheme == "shared_budget":
@@ -287,8 +291,9 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
         Arguments=docs.arguments(
             """
             - `num_envs`: number of banks (1 to 2**16).
-            - `max_episode_steps`: truncate episodes after this many steps (`None`: never;
-              `make_vec` passes the registered 1000).
+            - `max_episode_steps`: truncate episodes after this many steps (`None`: never).
+              Through `make_vec` it reads as in `gym.make`, the same in every
+              vectorization mode: absent or `None` the registered 1000, `-1` never.
             - `autoreset_mode`: `NEXT_STEP` (the only one).
             - every argument of :class:`SMAMultiplexedEnv` except `render_mode`.
             """

@@ -182,19 +182,30 @@ NON_INTERACTIVE_BACKENDS = frozenset({"agg", "cairo", "pdf", "pgf", "ps", "svg",
 """matplotlib backends that write files and never open a window."""
 
 
+def check_render_mode(render_mode: str | None, modes: Sequence[str]) -> str | None:
+    """``render_mode`` if it is one of ``modes`` or ``None``; a mode that draws needs the
+    ``[plots]`` extra, refused when the env is made rather than at its first ``render()``."""
+    if render_mode is not None and render_mode not in modes:
+        raise ValueError(f"render_mode = {render_mode!r}: expected one of {list(modes)} or None")
+    if render_mode is not None:
+        require("matplotlib", purpose=f"render_mode={render_mode!r}", extra="plots")
+    return render_mode
+
+
 class Renderer:
     """What a single env needs for ``render_mode``: the history, the plot, a human window."""
 
     def __init__(self, render_mode: str | None, modes: Sequence[str]):
-        if render_mode is not None and render_mode not in modes:
-            raise ValueError(f"render_mode = {render_mode!r}: expected one of {list(modes)} or None")
-        if render_mode is not None:
-            require("matplotlib", purpose=f"render_mode={render_mode!r}", extra="plots")
-        self.render_mode = render_mode
+        self.render_mode = check_render_mode(render_mode, modes)
         self.history = EpisodeHistory()
         self._plot: EpisodePlot | None = None
         self._window: Any = None
         self._last_human_t = -np.inf
+
+    def __getstate__(self) -> dict[str, Any]:
+        # The plot's matplotlib canvas and a window cannot be pickled (copy.deepcopy, a
+        # planner's snapshot); the copy draws its own at its first render().
+        return {**self.__dict__, "_plot": None, "_window": None, "_last_human_t": -np.inf}
 
     def record(self, **values: Any) -> None:
         """Record one sample (only while a render mode is set)."""

@@ -196,4 +196,8 @@ class SB3VecEnv(VecEnv):
         return [int(i) for i in chosen]
 
     def get_images(self) -> Sequence[np.ndarray | None]:
-        return [None] * self.num_envs
+        """One frame per sub-env when the vector env renders ``rgb_array`` (SB3's ``render()``
+        and ``VecVideoRecorder`` tile them), else ``None`` each, as ``DummyVecEnv`` gives."""
+        if self.render_mode != "rgb_array":
+            return [None] * self.num_envs
+        return list(self.venv.render())

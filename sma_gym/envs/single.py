@@ -34,6 +34,7 @@ from sma_gym.envs.task import (
     DEFAULT_OVERHEAT_C,
     DEFAULT_PWM_MODE,
     DEFAULT_REFERENCE,
+    UnstartedEnvs,
 )
 from sma_gym.model import ModelConfig, ModelSpec, load_model, model_names
 from sma_gym.simulator import PWM_MODES, Simulator
@@ -256,6 +257,7 @@ class SMAEnv(EpisodeRendering, ImportableSpec, gym.Env):
         self.duty_range = variant.duty_range
         self.control_period_s = settings.control_period_s
         self._set_scales()
+        self._unstarted = UnstartedEnvs(1, vector=False)
         self._duty = np.zeros((1, 1))
         self._obs = np.zeros((1, len(self.feature_names)), dtype=np.float32)
         self._reward = np.zeros(1)
@@ -287,6 +289,7 @@ class SMAEnv(EpisodeRendering, ImportableSpec, gym.Env):
             self._condition_info = condition_info(self.condition)
             self._set_scales()
         self._evaluate()
+        self._unstarted.started()
         self._start_rendering()
         return self._obs[0].copy(), self._info()
 
@@ -295,6 +298,7 @@ class SMAEnv(EpisodeRendering, ImportableSpec, gym.Env):
         return self.task.describe_references()[0]
 
     def step(self, action):
+        self._unstarted.require_none()
         a = require_scalar_action(action)
         duty = self.duty_range.duty_for(a)
         self._duty[0, 0] = duty

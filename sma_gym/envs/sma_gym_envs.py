@@ -4,13 +4,16 @@ Gymnasium's ``pprint_registry`` groups ids without a namespace by the third part
 entry point's module path, so keeping every entry point here lists the four ids together,
 under ``sma_gym_envs``. The single-actuator and multiplexed entry points are the env
 classes themselves (their signatures are the accepted kwargs); the vector entry points
-fix the variant of :class:`SMAVectorEnv`.
+fix the variant of :class:`SMAVectorEnv` and read ``max_episode_steps`` as ``gym.make`` does
+(:func:`episode_steps`).
 """
 
 from __future__ import annotations
 
+import numbers
 from typing import Any
 
+from sma_gym.envs import EPISODE_STEPS
 from sma_gym.envs.multiplexed import SMAMultiplexedEnv, SMAMultiplexedVectorEnv
 from sma_gym.envs.single import (
     ROBUST,
@@ -35,7 +38,20 @@ __all__ = [
 ]
 
 
+def episode_steps(kwargs: dict[str, Any]) -> dict[str, Any]:
+    """``kwargs`` with ``max_episode_steps`` as ``gym.make`` reads it, so that ``make_vec``
+    truncates alike in every vectorization mode: absent or ``None`` is the registered
+    :data:`~sma_gym.envs.EPISODE_STEPS`, ``-1`` is never (the vector classes' ``None``)."""
+    steps = kwargs.get("max_episode_steps")
+    if steps is None:
+        steps = EPISODE_STEPS
+    elif isinstance(steps, numbers.Integral) and not isinstance(steps, bool) and steps == -1:
+        steps = None
+    return {**kwargs, "max_episode_steps": steps}
+
+
 def _vector(num_envs: int, variant: Variant, env_id: str, kwargs: dict[str, Any]) -> SMAVectorEnv:
+    kwargs = episode_steps(kwargs)
     if "variant" in kwargs:
         raise ValueError(
             f"variant = {kwargs['variant']!r}: fixed by the id ({env_id} is the {variant.name} variant); "
@@ -61,4 +77,4 @@ def robust_vector(num_envs: int, **kwargs: Any) -> SMAVectorEnv:
 
 def multiplexed_vector(num_envs: int, **kwargs: Any) -> SMAMultiplexedVectorEnv:
     """Vector entry point of ``SMAMultiplexed-v0``: :class:`SMAMultiplexedVectorEnv` (num_envs banks, same kwargs)."""
-    return SMAMultiplexedVectorEnv(num_envs, **kwargs)
+    return SMAMultiplexedVectorEnv(num_envs, **episode_steps(kwargs))

@@ -354,3 +354,28 @@ def task_outputs(
         reward_out[j] = -abs(s[L.S_X] - r) / stroke - energy_weight * s[L.S_POWER] / p_full
         term_out[j] = s[L.S_T] > overheat_c
         ref_out[j] = r
+
+
+class UnstartedEnvs:
+    """Which envs (of a vector env: sub-envs) were never reset: stepping one would run an
+    episode without a reference or a noise generator, so the step is refused, as Gymnasium's
+    ``OrderEnforcing`` refuses it behind ``gym.make``, also for a class built directly or
+    stepped through ``env.unwrapped``. One ``bool`` test per step once all started."""
+
+    def __init__(self, n: int, vector: bool = True):
+        self._never = np.ones(n, dtype=bool)
+        self._all_started = False
+        self._vector = vector
+
+    def started(self, envs: np.ndarray | slice = slice(None)) -> None:
+        if not self._all_started:
+            self._never[envs] = False
+            self._all_started = not self._never.any()
+
+    def require_none(self) -> None:
+        if not self._all_started:
+            if not self._vector:
+                raise ResetNeeded("the env was never reset: call reset() before step()")
+            never = np.flatnonzero(self._never).tolist()
+            shown = never if len(never) <= 10 else [*never[:10], "..."]
+            raise ResetNeeded(f"sub-envs {shown} were never reset: call reset() before step()")

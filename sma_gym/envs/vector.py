@@ -13,7 +13,6 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
-from gymnasium.error import ResetNeeded
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -21,7 +20,7 @@ from gymnasium.vector.utils import batch_space
 from sma_gym._validation import require_actions, require_choice, require_int_range, require_options
 from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs.conditions import CONDITION_INFO, CONDITION_INFO_KEYS, condition_info
-from sma_gym.envs.render import EpisodeHistory, EpisodePlot
+from sma_gym.envs.render import EpisodeHistory, EpisodePlot, check_render_mode
 from sma_gym.envs.single import (
     TRACKING,
     Settings,
@@ -32,6 +31,7 @@ from sma_gym.envs.single import (
     spell_out_settings,
     with_settings,
 )
+from sma_gym.envs.task import UnstartedEnvs
 from sma_gym.simulator import Simulator
 
 _MODES = {mode.value: mode for mode in AutoresetMode}
@@ -115,8 +115,9 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             - `num_envs`: number of sub-envs (1 to 2**20).
             - `variant`: which single-actuator env (:data:`~sma_gym.envs.single.TRACKING`,
               `SELF_SENSING`, `ROBUST`); the vector entry points of the ids set it.
-            - `max_episode_steps`: truncate episodes after this many steps (`None`: never;
-              `make_vec` passes the registered 1000).
+            - `max_episode_steps`: truncate episodes after this many steps (`None`: never).
+              Through `make_vec` it reads as in `gym.make`, the same in every
+              vectorization mode: absent or `None` the registered 1000, `-1` never.
             - `autoreset_mode`: an :class:`~gymnasium.vector.AutoresetMode` or its value string.
             - `render_mode`: `None` or `"rgb_array"`: `render()` returns one frame per
               sub-env (a tuple, as `SyncVectorEnv` does), each the single env's plot of
@@ -168,9 +169,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         self.max_episode_steps = max_episode_steps
         mode = autoreset_mode.value if isinstance(autoreset_mode, AutoresetMode) else autoreset_mode
         self.autoreset_mode = _MODES[require_choice("autoreset_mode", mode, tuple(_MODES))]
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode = {render_mode!r}: expected one of {self.metadata['render_modes']} or None")
-        self.render_mode = render_mode
+        self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
         self.variant = variant
         self.settings = Settings.from_arguments(variant, arguments)
         self.metadata = dict(
@@ -377,33 +376,16 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
     def close_extras(self, **kwargs: Any) -> None:
         self._plot = None
 
+    def __getstate__(self) -> dict[str, Any]:
+        # As the single env's renderer: the plot's canvas cannot be pickled; a copy draws its own.
+        return {**self.__dict__, "_plot": None}
+
 
 VECTOR_SETTINGS = keyword_settings(SMARobustEnv.__init__)
 """Every single env's settings, the robustness conditions included (a condition kwarg for a
 variant that does not randomise is refused by :meth:`Settings.from_arguments`)."""
 
 spell_out_settings(SMAVectorEnv.__init__, VECTOR_SETTINGS)
-
-
-class UnstartedEnvs:
-    """Which sub-envs of a vector env were never reset: stepping one would run an episode
-    without a reference or a noise generator, so the step is refused (as Gymnasium's
-    ``OrderEnforcing`` refuses a single env's). One ``bool`` test per step once all started."""
-
-    def __init__(self, n: int):
-        self._never = np.ones(n, dtype=bool)
-        self._all_started = False
-
-    def started(self, envs: np.ndarray) -> None:
-        if not self._all_started:
-            self._never[envs] = False
-            self._all_started = not self._never.any()
-
-    def require_none(self) -> None:
-        if not self._all_started:
-            never = np.flatnonzero(self._never).tolist()
-            shown = never if len(never) <= 10 else [*never[:10], "..."]
-            raise ResetNeeded(f"sub-envs {shown} were never reset: call reset() before step()")
 
 
 def reset_arguments(
