@@ -40,12 +40,14 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
+from sma_gym._validation import require_positive
 from sma_gym.electrical.multiplexer import SCHEMES
 from sma_gym_agents.bank import bank_policy
 from sma_gym_agents.card import ALLOCATIONS, BANK_ENV_ID
@@ -237,7 +239,10 @@ def make_venv(entry: PolicyEntry, n_envs: int, seconds: float, env_kwargs: dict)
 
     kwargs = {**entry.env_kwargs, **env_kwargs}
     dt = kwargs.get("control_period_s", 0.01)
+    seconds = require_positive("seconds", seconds, "s")
     steps = int(round(seconds / dt))
+    if steps < 1:
+        raise ValueError(f"seconds = {seconds!r}: expected at least one control period ({dt!r} s)")
     spec = gym.spec(entry.env_id)
     mode = "vector_entry_point" if spec.vector_entry_point is not None else "sync"
     venv = gym.make_vec(
@@ -275,6 +280,8 @@ def rollouts(
     when it runs alone, and its policy sees only its columns, so each trace equals the one
     :func:`rollout` gives; only the Python overhead per control step is shared.
     """
+    if not entries or not len(seeds):
+        raise ValueError(f"rollouts: {len(entries)} entries and seeds = {list(seeds)!r}: expected at least one of each")
     first = entries[0]
     if any(
         (e.env_id, e.env_kwargs, e.frame_stack) != (first.env_id, first.env_kwargs, first.frame_stack) for e in entries
@@ -549,12 +556,27 @@ def run_table_6_1(
     entries: Sequence[PolicyEntry],
     results: Results,
     seeds: Sequence[int] = DEFAULT_SEEDS,
-    condition: str = "standard",
+    condition: str | None = None,
     model: Any = "standard",
     sine_seconds: float = SINE_SECONDS,
 ) -> None:
+    """Table 6.1's step and sine for ``entries`` on ``model``, recorded under ``condition``.
+
+    ``condition`` defaults to ``"standard"`` for the report's standard model (given by that
+    name), else to ``"model <name>"``: the report's numbers are set beside ``"standard"``
+    only, so another actuator's results are never compared with the report's.
+    """
+    if condition is None:
+        condition = "standard" if isinstance(model, str) and model == "standard" else f"model {_model_label(model)}"
     for group in batchable(entries):
         _step_and_sine("6.1", group, model, condition, results, seeds, sine_seconds)
+
+
+def _model_label(model: Any) -> str:
+    """A model as a label: the name or path given, else the configuration's name."""
+    if isinstance(model, (str, os.PathLike)):
+        return str(model)
+    return str(getattr(model, "name", model))
 
 
 def run_chapter_7(
@@ -937,8 +959,8 @@ def evaluate(
             bank_entry(PID, "shared_budget"),
             bank_entry(PID, "shared_budget", "priority"),
         ]
-        run_chapter_9(chosen + ([banks[1]] if baselines is None else []), results)
-        run_bank_step(banks, results)
+        run_chapter_9(chosen + ([banks[1]] if baselines is None else []), results, seeds=seeds)
+        run_bank_step(banks, results, seeds)
         for agent in bank_agents:
             # Each bank agent beside the bank baselines of its own scheme, at the n it trained with.
             scheme = agent.env_kwargs.get("scheme", "fixed_slots")

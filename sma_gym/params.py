@@ -657,10 +657,10 @@ class ActuatorParams:
 
     @property
     def usable_stroke_m(self) -> float:
-        """The stroke a controller can use [m]: the driver's end-of-travel position if it has
-        one, else the wire's eps0 * l0. The envs scale positions and references by it."""
-        eot = self.driver.end_of_travel_m
-        return eot if math.isfinite(eot) else self.wire.max_stroke_m
+        """The stroke a controller can use [m]: the driver's end-of-travel position or the
+        wire's eps0 * l0, whichever is shorter (a short wire never reaches the standard cut's
+        9.5 mm). The envs scale positions and draw references by it."""
+        return min(self.driver.end_of_travel_m, self.wire.max_stroke_m)
 
     @property
     def full_power_heating_rate_k_s(self) -> float:

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from stable_baselines3.common.evaluation import evaluate_policy
 
+from sma_gym import preset
 from sma_gym.cli import main
 from sma_gym.provenance import describe, provenance
 from sma_gym_agents import ALL_SPECS, ControllerPolicy, ResistanceCalibration
@@ -203,6 +204,35 @@ def test_efficiency_of_a_stroke_that_never_arrives_is_not_a_number():
         seeds=(0,),
     )
     assert np.isnan(efficiency_percent(trace, start_s=1.0, end_level_m=6.99e-3))[0]
+
+
+def test_evaluate_runs_chapter_9_and_the_bank_step_over_the_seeds_it_is_given(monkeypatch):
+    """``--seeds`` reached chapters 6-8 but not 9: its runs took their one-seed default."""
+    import sma_gym_agents.evaluation as ev
+
+    seen = {}
+    monkeypatch.setattr(ev, "run_chapter_9", lambda entries, results, **kw: seen.update(ch9=kw.get("seeds")))
+    monkeypatch.setattr(ev, "run_bank_step", lambda entries, results, seeds=(0,): seen.update(bank=seeds))
+    ev.evaluate(experiments=["9"], seeds=(4, 5, 6))
+    assert seen == {"ch9": (4, 5, 6), "bank": (4, 5, 6)}
+
+
+def test_table_6_1_of_another_actuator_is_labelled_by_it_and_never_set_beside_the_report():
+    from sma_gym_agents.report import table_6_1_markdown
+
+    mine = preset("standard").with_changes(**{"wire.diameter_m": 0.2e-3, "driver.supply_voltage_v": 5.0})
+    results = Results()
+    run_table_6_1([baseline(PID)], results, seeds=(0,), model=mine, sine_seconds=12.0)
+    assert results.distinct("6.1", "condition") == ["model standard"]
+    table = table_6_1_markdown(results)
+    assert "(model standard conditions): simulated\n" in table and "(+0.061)" not in table, table
+    assert "| PID |" in table
+
+
+@pytest.mark.parametrize("seconds", [0.0, -1.0, float("nan"), "2", 1e-4])
+def test_a_rollout_refuses_a_length_that_is_not_a_positive_number_of_control_periods(seconds):
+    with pytest.raises(ValueError, match="seconds = "):
+        rollout(baseline(PID), reference="report-step", seconds=seconds, seeds=(0,))
 
 
 def test_cli_prints_every_metric_as_json_and_writes_the_report(tmp_path, capsys):

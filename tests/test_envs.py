@@ -582,6 +582,22 @@ def test_scales_are_the_parameters_definitions():
     assert venv.unwrapped.position_scale_m.tolist() == [no_cut.actuator.wire.max_stroke_m] * 2
 
 
+def test_a_wire_shorter_than_the_cut_scales_and_draws_within_its_own_stroke():
+    """A 0.15 m wire contracts at most eps0 l0 = 6 mm, short of the standard cut's 9.5 mm:
+    the usable stroke is the shorter of the two (it was the cut's), so every drawn reference
+    stays where the wire can go instead of driving it to overheat."""
+    short = preset("standard").with_changes(**{"wire.length_m": 0.15})
+    assert short.wire.max_stroke_m == pytest.approx(6e-3) and short.usable_stroke_m == short.wire.max_stroke_m
+    env = make("SMATracking-v0", model=ModelConfig(short)).unwrapped
+    assert env.position_scale_m == short.usable_stroke_m
+    for seed in range(40):
+        env.reset(seed=seed)
+        ref = env.reference_description()
+        levels = [v for k, v in ref.items() if k.startswith("level") and isinstance(v, float)]
+        levels += list(ref.get("levels_m", [])) + ([ref["offset_m"] + ref["amplitude_m"]] if "offset_m" in ref else [])
+        assert max(levels) <= short.usable_stroke_m, ref
+
+
 def test_the_compiled_features_follow_their_documented_definitions_and_order():
     env = make("SMATracking-v0")
     u = env.unwrapped
@@ -599,3 +615,20 @@ def test_the_compiled_features_follow_their_documented_definitions_and_order():
     assert f["resistance"] == pytest.approx(np.clip(10.0 * (r / r_cold - 1.0), -3, 3), abs=1e-5)
     ref = u.task.references[0]
     assert f["preview_1s"] == pytest.approx(np.clip(ref(info["time_s"] + 1.0)[0] / stroke, -0.5, 1.5), abs=1e-6)
+
+
+def test_a_described_reference_given_back_as_a_dict_is_the_same_reference_and_its_fields_are_documented():
+    """The fields a user passes are the fields ``reference_description()`` gives (one
+    definition, ``references.FIELDS``), and the env's docstring lists them."""
+    from sma_gym.envs.references import FIELDS
+
+    env = make("SMATracking-v0").unwrapped
+    for kind in FIELDS:
+        env.reset(seed=5, options={"reference": kind})
+        described = env.reference_description()
+        given = {k: v for k, v in described.items() if k in FIELDS[kind] or k == "kind"}
+        if kind == "random":
+            given = {"kind": kind, "times_s": described["times_s"], "levels_m": described["levels_m"]}
+        env.reset(seed=6, options={"reference": given})
+        assert env.reference_description() == described
+        assert all(f"`{field}`" in type(env).__doc__ for field in FIELDS[kind])

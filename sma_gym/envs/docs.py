@@ -12,7 +12,7 @@ from __future__ import annotations
 import textwrap
 
 from sma_gym.envs import task
-from sma_gym.envs.references import NAMED
+from sma_gym.envs.references import FIELDS, NAMED
 from sma_gym.simulator import PWM_MODES
 
 SECTIONS = (
@@ -66,7 +66,7 @@ REWARD = """
     with `P_el` the mean electrical power of the step and `P_full = V^2 / R_cold` the power
     at duty 1 into the cold wire (the hot wire's resistance is lower, so at duty 1 the
     energy term reaches up to 1.21 `energy_weight` on the presets); `stroke` is the usable
-    stroke (the driver's end-of-travel position, else eps0 l0). The reward uses the true
+    stroke (the shorter of the driver's end-of-travel position and eps0 l0). The reward uses the true
     position, whatever the agent sees.
     """
 
@@ -82,11 +82,17 @@ EPISODE_END = """
     (registered: 1000 steps = 10 s at the default control period).
     """
 
+_REFERENCE_FIELDS = "; ".join(f"{kind}: " + ", ".join(f"`{f}`" for f in fields) for kind, fields in FIELDS.items())
+
 ARGUMENTS = f"""
     - `model`: preset name, model JSON path or :class:`~sma_gym.ModelConfig`.
     - `control_period_s`: 1e-4 to 0.1 s (default {task.DEFAULT_CONTROL_PERIOD_S:g}).
     - `reference`: a kind ({", ".join(f"`{k!r}`" for k in NAMED)}), a tuple of kinds drawn
-      from at each reset, or a dict with the parameters (default {task.DEFAULT_REFERENCE}).
+      from at each reset, or a dict `{{"kind": kind, field: value, ...}}` (default
+      {task.DEFAULT_REFERENCE}); the fields, in s, m and rad ({_REFERENCE_FIELDS}; a field
+      left out takes a default, the report's for step and sine; `{{"kind": kind}}` alone
+      draws that kind), are
+      :data:`~sma_gym.envs.references.FIELDS`. The same in `reset(options={{"reference": ...}})`.
     - `energy_weight`: 0 to 10 (default {task.DEFAULT_ENERGY_WEIGHT:g}); `overheat_limit_c`:
       40 to 500 degC (default {task.DEFAULT_OVERHEAT_C:g}: Flexinol's trained memory
       degrades when held much hotter).

@@ -41,6 +41,18 @@ NAMED = ("step", "ramp", "sine", "random", "report-step", "report-sine")
 N_PARAMS = 6
 N_WAYPOINTS = 24
 
+FIELDS: dict[str, tuple[str, ...]] = {
+    "step": ("t1_s", "level1_m", "t2_s", "level2_m"),
+    "ramp": ("t1_s", "level1_m", "d1_s", "t2_s", "level2_m", "d2_s"),
+    "sine": ("offset_m", "amplitude_m", "frequency_hz", "phase_rad"),
+    "random": ("times_s", "levels_m"),
+}
+"""The fields of a reference given as a dict, ``{"kind": kind, field: value, ...}``, and of
+:meth:`Reference.describe`, per kind (times and durations in s, positions in m from rest,
+the sine's phase in rad; ``random``'s two are lists of 2 to N_WAYPOINTS waypoints). A field
+left out takes the report's value (step, sine) or a fixed default (ramp); ``{"kind": kind}``
+alone draws that kind as training does."""
+
 REPORT_STEP_M = 8e-3
 REPORT_STEP_TIME_S = 0.5
 REPORT_SINE_FREQUENCY_HZ = 0.1
@@ -79,13 +91,8 @@ class Reference:
     def describe(self) -> dict[str, Any]:
         inverse = {v: k for k, v in KIND_CODES.items()}
         d: dict[str, Any] = {"kind": inverse[self.kind], "name": self.name or inverse[self.kind]}
-        labels = {
-            STEP: ("t1_s", "level1_m", "t2_s", "level2_m"),
-            RAMP: ("t1_s", "level1_m", "d1_s", "t2_s", "level2_m", "d2_s"),
-            SINE: ("offset_m", "amplitude_m", "frequency_hz", "phase_rad"),
-            RANDOM: (),
-        }[self.kind]
-        d.update({label: float(v) for label, v in zip(labels, self.params)})
+        if self.kind != RANDOM:
+            d.update({label: float(v) for label, v in zip(FIELDS[d["kind"]], self.params)})
         if self.kind == RANDOM:
             d["times_s"] = [float(v) for v in self.waypoint_t]
             d["levels_m"] = [float(v) for v in self.waypoint_x]
@@ -187,8 +194,8 @@ def draw(kind: str, rng: np.random.Generator, stroke_m: float) -> Reference:
 def resolve(spec: Any, rng: np.random.Generator, stroke_m: float, default: str | tuple[str, ...]) -> Reference:
     """A reference from a reset option: a name, a Reference, a dict, or None (use default).
 
-    A dict may be ``{"kind": "step", "level1_m": ..., ...}`` (fields of :meth:`describe`)
-    or ``{"kind": "sine"}`` to draw only that kind.
+    A dict may be ``{"kind": "step", "level1_m": ..., ...}`` (:data:`FIELDS`) or
+    ``{"kind": "sine"}`` to draw only that kind.
     """
     if spec is None:
         choices = (default,) if isinstance(default, str) else tuple(default)
@@ -206,13 +213,6 @@ def resolve(spec: Any, rng: np.random.Generator, stroke_m: float, default: str |
     if isinstance(spec, Mapping):
         return _from_mapping(spec, rng, stroke_m)
     raise ValueError(f"reference = {spec!r}: expected a name ({', '.join(NAMED)}), a dict or a Reference")
-
-
-_FIELDS = {
-    "step": ("t1_s", "level1_m", "t2_s", "level2_m"),
-    "ramp": ("t1_s", "level1_m", "d1_s", "t2_s", "level2_m", "d2_s"),
-    "sine": ("offset_m", "amplitude_m", "frequency_hz", "phase_rad"),
-}
 
 
 MAX_REFERENCE_FREQUENCY_HZ = 100.0
@@ -244,10 +244,10 @@ def _from_mapping(spec: Mapping[str, Any], rng: np.random.Generator, stroke_m: f
     if not given:
         return draw(kind, rng, stroke_m)
     if kind == "random":
-        unknown = set(given) - {"times_s", "levels_m"}
+        unknown = set(given) - set(FIELDS["random"])
         if unknown:
             raise ValueError(
-                f"reference 'random': unknown field(s) {sorted(unknown)}; expected ['times_s', 'levels_m']"
+                f"reference 'random': unknown field(s) {sorted(unknown)}; expected {list(FIELDS['random'])}"
             )
         try:
             wp_t = np.asarray(given.get("times_s", []), dtype=float)
@@ -271,7 +271,7 @@ def _from_mapping(spec: Mapping[str, Any], rng: np.random.Generator, stroke_m: f
         times = np.concatenate([wp_t, wp_t[-1] + np.arange(1, N_WAYPOINTS - len(wp_t) + 1)])
         levels = np.concatenate([wp_x, np.full(N_WAYPOINTS - len(wp_x), wp_x[-1])])
         return Reference(RANDOM, np.zeros(N_PARAMS), times, levels, name="random")
-    names = _FIELDS[kind]
+    names = FIELDS[kind]
     unknown = set(given) - set(names)
     if unknown:
         raise ValueError(f"reference {kind!r}: unknown field(s) {sorted(unknown)}; expected {list(names)}")
