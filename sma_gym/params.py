@@ -671,6 +671,10 @@ class ActuatorParams:
     def with_changes(self, **changes: Any) -> ActuatorParams:
         """Return a copy with fields changed, addressed as ``"part.field"`` or ``part=Part(...)``.
 
+        ``name`` and ``description`` stay the original's unless given: name a model of your
+        own (``name="my-wire", description=...``), since saved files, reports and messages
+        carry them.
+
         >>> p = standard().with_changes(**{"driver.supply_voltage_v": 15.0})
         """
         parts: dict[str, dict[str, Any]] = {}

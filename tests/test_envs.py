@@ -315,6 +315,11 @@ def test_the_robust_envs_refusal_names_the_model_as_the_user_gave_it(tmp_path):
     with pytest.raises(ValueError, match="robustness env draws its conditions") as err:
         make("SMARobust-v0", model=str(path))
     assert str(err.value).startswith(f"model = {str(path)!r}:")
+    # A changed copy of a preset keeps the preset's name: said to be the object's, not the preset's.
+    changed = preset("supply-15v").with_changes(**{"driver.supply_voltage_v": 5.0})
+    with pytest.raises(ValueError, match="robustness env draws its conditions") as err:
+        make("SMARobust-v0", model=changed)
+    assert str(err.value).startswith("model = ActuatorParams(name='supply-15v', ...): ")
 
 
 def test_robust_env_keeps_or_draws_a_models_conditions_as_the_kwargs_say():

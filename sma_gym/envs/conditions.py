@@ -171,14 +171,18 @@ def require_no_silent_override(
         )
     if problems:
         raise ValueError(
-            f"model = {_shown(model, label)!r}: the robustness env draws its "
+            f"model = {_shown(model, label)}: the robustness env draws its "
             "conditions at every reset, and " + "; ".join(problems)
         )
 
 
 def _shown(model: ModelConfig, label: object) -> str:
-    """How an error names the model: as the user gave it when that was a name or a path."""
-    return str(label) if isinstance(label, (str, os.PathLike)) else model.actuator.name
+    """How an error names the model: as the user gave it when that was a name or a path;
+    a configuration object by its name, which a changed copy of a preset keeps, so it is
+    said to be the configuration's and not the preset's."""
+    if isinstance(label, (str, os.PathLike)):
+        return repr(str(label))
+    return f"{type(label).__name__}(name={model.actuator.name!r}, ...)"
 
 
 CONDITION_KWARGS = tuple(f.name for f in fields(Conditions))
