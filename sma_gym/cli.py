@@ -65,7 +65,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     from sma_gym.data import MeasuredDataError, load_traces
     from sma_gym.data.measured import DIAGNOSIS_MIN_ROWS
     from sma_gym.diagnosis.report import write_outputs
-    from sma_gym.diagnosis.workflow import diagnose, require_diagnosable, require_max_rounds
+    from sma_gym.diagnosis.workflow import data_notes, diagnose, require_diagnosable, require_max_rounds
     from sma_gym.effects import EFFECTS
     from sma_gym.model import load_model
 
@@ -85,6 +85,8 @@ def _diagnose(args: argparse.Namespace) -> int:
         print(f"sma-gym diagnose: invalid measured data:\n{err}", file=sys.stderr)
         return 2
     require_diagnosable(fit, held)
+    for note in data_notes([*fit, *held]):
+        print(f"sma-gym diagnose: note: {note}", file=sys.stderr)
     named = _sidecar_model([*fit, *held])
     if args.model is not None and named is not None and args.model != named:
         print(f"sma-gym diagnose: note: --model {args.model!r} is used; the sidecars name {named!r}", file=sys.stderr)
@@ -169,23 +171,41 @@ def _sidecar_model(traces: Sequence[Any]) -> str | None:
 
 def _require_distinct_inputs(files: Sequence[str], heldout: Sequence[str]) -> None:
     """A file given twice (or as fitted and held-out data) would count its evidence twice,
-    and held-out data that was also fitted is not held out."""
-    seen: dict[Path, str] = {}
+    and held-out data that was also fitted is not held out: the same path, another path to
+    the same file (a link) or a copy with the same bytes."""
+    from sma_gym._io import sha256_file
+
+    seen: dict[object, str] = {}
     for what, names in (("fit file", files), ("--heldout", heldout)):
         for name in names:
-            key = Path(name).resolve()
-            if key in seen:
-                raise ValueError(
-                    f"{what} {name!r}: already given as {seen[key]}; each measured file may appear once "
-                    "(held-out data must not be fitted)"
-                )
-            seen[key] = f"{what} {name!r}"
+            path = Path(name)
+            keys: list[object] = [path.resolve()]
+            if path.is_file():
+                st = path.stat()
+                keys.append((st.st_dev, st.st_ino))
+                with contextlib.suppress(OSError):  # unreadable: loading it names the problem
+                    keys.append(("sha256", sha256_file(path)))
+            for key in keys:
+                if key in seen:
+                    how = (
+                        "already given"
+                        if isinstance(key, Path)
+                        else "the same data"
+                        if key[0] == "sha256"  # type: ignore[index]
+                        else "the same file"
+                    )
+                    raise ValueError(
+                        f"{what} {name!r}: {how} as {seen[key]}; each measured file may appear once "
+                        "(held-out data must not be fitted)"
+                    )
+            for key in keys:
+                seen[key] = f"{what} {name!r}"
 
 
 def _require_out_free(args: argparse.Namespace, out: Path, fit: Any, held: Any, outputs: Sequence[str] | None) -> None:
     """Refuse an ``--out`` whose outputs would replace an input, or an earlier report without
     ``--overwrite`` (the user's files are never changed unasked)."""
-    from sma_gym.data.measured import sidecar_path
+    from sma_gym.data.measured import sidecar_candidates, sidecar_path
     from sma_gym.diagnosis.report import output_paths, previous_outputs
 
     if outputs is None:
@@ -203,6 +223,26 @@ def _require_out_free(args: argparse.Namespace, out: Path, fit: Any, held: Any, 
         raise ValueError(
             f"--out {str(out)!r}: this run would write over its own input {', '.join(sorted(map(str, clash)))}; "
             "copy the input elsewhere or choose another --out"
+        )
+    # A file this run writes where a data file's sidecar is looked for would be read as that
+    # file's conditions from then on (X/diagnosis.csv diagnosed into X: diagnosis.json).
+    will_write = {p.resolve() for p in written}
+    for data in (Path(f) for f in (*args.files, *(args.heldout or []))):
+        for side in sidecar_candidates(data):
+            if side.exists():
+                break  # the sidecar it has (the first found is read)
+            if side.resolve() in will_write:
+                raise ValueError(
+                    f"--out {str(out)!r}: this run would write {str(side)!r}, which would then be read as the "
+                    f"sidecar of its input {str(data)!r}; choose another --out or rename the input"
+                )
+    # Never over a file of the user's that only shares a name with an output.
+    earlier_set = {p.resolve() for p in earlier}
+    theirs = sorted(str(p) for p in written if p.is_file() and p.resolve() not in earlier_set)
+    if theirs:
+        raise ValueError(
+            f"--out {str(out)!r}: holds {', '.join(theirs)}, not written by an earlier diagnosis, where this run "
+            "would write; choose another --out or move them"
         )
     if earlier and not args.overwrite:
         shown = ", ".join(p.name for p in earlier[:4]) + (", ..." if len(earlier) > 4 else "")

@@ -1469,3 +1469,91 @@ def test_a_controller_on_another_package_env_says_it_needs_an_sma_gym_env():
         ControllerPolicy("PID", gym.make("CartPole-v1"))
     with pytest.raises(ValueError, match="expected SMAMultiplexed-v0"):
         FixedSlotBank("PID", gym.make("sma_gym:SMATracking-v0"))
+
+
+def test_diagnose_notes_what_it_takes_for_granted_that_a_file_contradicts():
+    """Found by a user with their own bench: a clamped wire's force was counted as a varying
+    output (a confident effect on a flat position), and a file cut mid-run, a logger dropout
+    and a reversed position sign were diagnosed without a word."""
+    from sma_gym.data.measured import MeasuredTrace
+    from sma_gym.diagnosis.workflow import data_notes, require_diagnosable
+
+    t = np.arange(3000) * 1e-3
+    duty = np.where(t > 0.5, 0.3, 0.0)
+    rise = np.clip(t - 0.6, 0.0, None) * 1e-3
+    clamped = MeasuredTrace("clamped.csv", t, duty, np.zeros_like(t), force=0.5 + 8.0 * (duty > 0))
+    with pytest.raises(ValueError, match="no measured output varies"):
+        require_diagnosable([clamped])
+    good = MeasuredTrace("good.csv", t, duty, rise)
+    assert data_notes([good]) == []
+    mid = MeasuredTrace("mid.csv", t, np.full_like(t, 0.2), rise)
+    gap = MeasuredTrace("gap.csv", np.where(t > 1.0, t + 5.0, t), duty, rise)
+    flipped = MeasuredTrace("flipped.csv", t, duty, -rise)
+    weighed = MeasuredTrace("weighed.csv", t, duty, rise, force=0.5 + rise)
+    notes = data_notes([mid, gap, flipped, weighed])
+    assert len(notes) == 4, notes
+    assert notes[0].startswith("mid.csv: heated from row 1 on, with no rest before it")
+    assert notes[1].startswith("gap.csv: no sample for 5 s after t = 1 s")
+    assert notes[2].startswith("flipped.csv: the position falls 2.4 mm below its start") and "sign" in notes[2]
+    assert notes[3].startswith("weighed.csv: its force column is checked but not compared")
+
+
+def test_diagnose_refuses_a_held_out_file_that_is_a_link_to_or_copy_of_a_fitted_one(tmp_path, capsys):
+    from sma_gym.cli import main
+
+    fit = _synth(tmp_path, "fit.csv")
+    linked, copied = tmp_path / "linked.csv", tmp_path / "copied.csv"
+    os.link(fit, linked)
+    copied.write_bytes(fit.read_bytes())
+    for held, how in ((linked, "the same file"), (copied, "the same data")):
+        assert main(["diagnose", str(fit), "--heldout", str(held), "--out", str(tmp_path / "d")]) == 2
+        assert f"--heldout {str(held)!r}: {how} as fit file" in capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
+
+
+def test_diagnose_never_makes_its_report_a_data_files_sidecar_nor_writes_over_a_users_own_file(tmp_path, capsys):
+    from sma_gym.cli import main
+    from sma_gym.diagnosis.report import previous_outputs
+
+    out = tmp_path / "X"
+    out.mkdir()
+    data = out / "diagnosis.csv"
+    data.write_bytes(_synth(tmp_path, "run.csv").read_bytes())
+    (tmp_path / "run.csv.json").rename(out / "unrelated.json")
+    # diagnosis.json would become diagnosis.csv's sidecar (its <stem>.json) from then on.
+    assert main(["diagnose", str(data), "--out", str(out)]) == 2
+    assert "would then be read as the sidecar of its input" in capsys.readouterr().err
+    # A folder with a file of the user's that only looks like a plot of a diagnosis holds no
+    # earlier diagnosis; a file where the run would write is never replaced.
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "fit_2_bench_vs_fem.png").write_text("my figure")
+    assert previous_outputs(mine) == []
+    (mine / "fit_0_run.png").write_text("my other figure")
+    run = tmp_path / "run.csv"
+    assert main(["diagnose", str(run), "--out", str(mine), "--overwrite"]) == 2
+    assert "not written by an earlier diagnosis" in capsys.readouterr().err
+    assert (mine / "fit_0_run.png").read_text() == "my other figure"
+
+
+def test_an_interrupt_while_a_diagnosis_writes_leaves_the_earlier_set_whole(tmp_path, monkeypatch):
+    """Each file was written atomically but the set was not: a Ctrl-C while the plots were
+    written left a new plot beside the earlier report (or, in a new folder, a lone plot)."""
+    from sma_gym.diagnosis import report
+
+    out = tmp_path / "d"
+    out.mkdir()
+    earlier = {"diagnosis.md": "old", "diagnosis.json": json.dumps({"outputs": ["diagnosis.md", "fit_0_a.png"]})}
+    earlier["fit_0_a.png"] = "old plot"
+    for name, text in earlier.items():
+        (out / name).write_text(text)
+
+    def interrupted(result, staging, *args, **kwargs):
+        (staging / "fit_0_b.png").write_text("new plot")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(report, "write_report", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        report.write_outputs(None, out, [], [], None)
+    assert {p.name: p.read_text() for p in out.iterdir()} == earlier  # no staging folder left either
+    assert [p.name for p in report.previous_outputs(out)] == ["diagnosis.json", "diagnosis.md", "fit_0_a.png"]

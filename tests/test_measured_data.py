@@ -54,8 +54,8 @@ def test_diagnose_says_which_conditions_no_sidecar_gives_and_what_it_assumes(tmp
 
     path, _ = write_synth(SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, seed=1), tmp_path / "run.csv")
     (tmp_path / "run.csv.json").unlink()
-    bare_run = tmp_path / "bare.csv"
-    bare_run.write_bytes(path.read_bytes())
+    bare_run, _ = write_synth(SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, seed=2), tmp_path / "bare.csv")
+    (tmp_path / "bare.csv.json").unlink()
     # An unknown effect stops the command once the files and the model are read.
     args = ["diagnose", str(path), str(bare_run), "--model", "bench-0.5mm-ht-datasheet", "--effects", "warp"]
     assert main([*args, "--out", str(tmp_path / "d")]) == 2
@@ -206,3 +206,10 @@ def test_a_file_with_too_few_rows_is_told_one_minimum(tmp_path):
             load_trace(f, min_rows=20)
     with pytest.raises(MeasuredDataError, match=r"expected at least 2$"):
         load_trace(write(tmp_path / "empty.csv", "t,duty,position\n"))
+
+
+def test_a_comment_line_is_named_as_one_not_as_missing_columns(tmp_path):
+    f = write(tmp_path / "logger.csv", "# bench 3, 2025-01-01\nt,duty,position\n0,0,0\n0.001,0.5,1e-5\n")
+    with pytest.raises(MeasuredDataError) as err:
+        load_trace(f)
+    assert "is a comment line; expected the header" in str(err.value) and "missing" not in str(err.value)

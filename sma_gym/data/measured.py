@@ -168,9 +168,18 @@ class MeasuredTrace:
         )
 
 
+def sidecar_candidates(csv_path: Path) -> tuple[Path, ...]:
+    """Where a file's sidecar may be, in the order it is looked for: ``<file>.json``, then
+    ``<stem>.json`` (never the file itself)."""
+    return tuple(
+        c for c in (csv_path.with_name(csv_path.name + ".json"), csv_path.with_suffix(".json")) if c != csv_path
+    )
+
+
 def sidecar_path(csv_path: Path) -> Path | None:
-    for candidate in (csv_path.with_name(csv_path.name + ".json"), csv_path.with_suffix(".json")):
-        if candidate.exists() and candidate != csv_path:
+    """The file's sidecar, if there is one (:func:`sidecar_candidates`)."""
+    for candidate in sidecar_candidates(csv_path):
+        if candidate.exists():
             return candidate
     return None
 
@@ -204,6 +213,14 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
         raise MeasuredDataError(
             [
                 f"{where}:1: header {header[0]!r} is one column separated by {separator!r}; expected commas ({','.join(REQUIRED)},...)"
+            ]
+        )
+    if header and header[0].startswith("#"):
+        # One message, not one per column: the loader reads no comments.
+        raise MeasuredDataError(
+            [
+                f"{where}:1: {rows[0][0].strip()!r}... is a comment line; expected the header ({','.join(REQUIRED)},...) "
+                "on the first line (remarks belong in the sidecar's 'notes')"
             ]
         )
     for name in REQUIRED:

@@ -3,7 +3,10 @@ by regime)."""
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import shutil
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -33,7 +36,11 @@ def write_report(
     fit_traces: Sequence[MeasuredTrace],
     heldout_traces: Sequence[MeasuredTrace],
     nominal: ModelConfig,
+    shown_out: Path | None = None,
 ) -> Path:
+    """The markdown report and its plots into ``out``; ``shown_out``: the folder the report
+    names for the corrected model (where the files end up, when ``out`` is a staging folder)."""
+    shown = out if shown_out is None else shown_out
     plots = []
     for label, traces in (("fit", fit_traces), ("heldout", heldout_traces)):
         for k, trace in enumerate(traces):
@@ -61,7 +68,7 @@ def write_report(
         headline,
         "",
         f"Nominal model: `{nominal.name}`. Fitted: {', '.join(t.name for t in fit_traces)}. Held out: {result.held_out}.",
-        f"Corrected model: `corrected_model.json` (`gymnasium.make(id, model={str(out / 'corrected_model.json')!r})` "
+        f"Corrected model: `corrected_model.json` (`gymnasium.make(id, model={str(shown / 'corrected_model.json')!r})` "
         f"from where the command ran). Took {result.seconds:.0f} s."
         + (
             f" It also carries `{result.carried}`, the best held out of the last round's ambiguous candidates"
@@ -353,11 +360,33 @@ def output_paths(out: Path, fit_traces: Sequence[MeasuredTrace], heldout_traces:
     return names
 
 
+RECORD_KEY = "outputs"
+"""The key of ``diagnosis.json`` that lists the files the run wrote into its folder."""
+
+_ALWAYS = tuple(name for name in OUTPUT_PATTERNS if "*" not in name)
+
+
 def previous_outputs(out: Path) -> list[Path]:
-    """Files in ``out`` that a diagnosis writes (:data:`OUTPUT_PATTERNS`): an earlier run's."""
+    """The files an earlier diagnosis wrote into ``out``: those its ``diagnosis.json`` lists,
+    or (a run from before that list) those matching :data:`OUTPUT_PATTERNS`, but only beside
+    its report; a folder without one holds no earlier diagnosis, whatever its files are named."""
     if not out.is_dir():
         return []
+    record = out / "diagnosis.json"
+    try:
+        listed = json.loads(record.read_text()).get(RECORD_KEY)
+    except (OSError, ValueError, AttributeError):
+        listed = None
+    if isinstance(listed, list) and all(isinstance(n, str) and Path(n).name == n for n in listed):
+        return sorted(out / n for n in set(listed) | {"diagnosis.json"} if (out / n).is_file())
+    if not any((out / name).is_file() for name in _ALWAYS):
+        return []
     return sorted({p for pattern in OUTPUT_PATTERNS for p in out.glob(pattern) if p.is_file()})
+
+
+STAGING_PREFIX = ".sma-gym-staging-"
+"""Hidden folder inside ``--out`` where a diagnosis writes its files before they replace
+the earlier ones (removed whatever happens; one left by a killed run is removed by the next)."""
 
 
 def write_outputs(
@@ -369,21 +398,34 @@ def write_outputs(
 ) -> dict[str, Path]:
     """Corrected model file, markdown report, JSON and plots into ``out``.
 
-    Each file is written atomically, and the corrected model last: an interrupted run
-    never leaves a corrected model without the report and JSON that justify it.
+    Every file is written into a staging folder first and only then moved into ``out``
+    (one rename each, the corrected model last), and the earlier run's files that this run
+    does not write are removed after: an interrupt while writing leaves the earlier set
+    whole (or, in a new folder, nothing), never a mix of two runs nor a corrected model
+    without the report and JSON that justify it.
     """
     out.mkdir(parents=True, exist_ok=True)
+    for leftover in out.glob(STAGING_PREFIX + "*"):
+        shutil.rmtree(leftover, ignore_errors=True)  # a killed run's (the caller holds the folder's lock)
     earlier = previous_outputs(out)
-    report = write_report(result, out, fit_traces, heldout_traces, nominal)
-    # The code beside the verdicts: the nominal model changes between commits.
-    write_json(out / "diagnosis.json", {**result.as_dict(), "provenance": provenance()}, default=json_default)
-    model_path = result.corrected_model.save(out / "corrected_model.json")
-    # An earlier run's plots of other files would read as this run's.
-    written = set(output_paths(out, fit_traces, heldout_traces))
+    staging = out / f"{STAGING_PREFIX}{os.getpid()}"
+    staging.mkdir()
+    try:
+        write_report(result, staging, fit_traces, heldout_traces, nominal, shown_out=out)
+        names = sorted(p.name for p in staging.iterdir()) + ["diagnosis.json", "corrected_model.json"]
+        # The code beside the verdicts: the nominal model changes between commits.
+        record = {**result.as_dict(), "provenance": provenance(), RECORD_KEY: names}
+        write_json(staging / "diagnosis.json", record, default=json_default)
+        result.corrected_model.save(staging / "corrected_model.json")
+        for name in names:
+            os.replace(staging / name, out / name)  # the corrected model last (see names)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    # An earlier run's files that this one did not write would read as this run's.
     for stale in earlier:
-        if stale not in written:
+        if stale.name not in names:
             stale.unlink(missing_ok=True)
-    return {"model": model_path, "json": out / "diagnosis.json", "report": report}
+    return {"model": out / "corrected_model.json", "json": out / "diagnosis.json", "report": out / "diagnosis.md"}
 
 
 def json_default(value: Any) -> Any:

@@ -109,6 +109,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -1393,7 +1394,9 @@ def require_diagnosable(
     an effect). ``sma-gym diagnose`` calls it before it creates its output folder."""
     for trace in (*fit_traces, *heldout_traces):
         _require_file(trace, control_period_s)
-    outputs = ("position", "resistance", "current", "supply_voltage", "force")
+    # Only what the fits compare counts: a varying force beside a constant position (a
+    # clamped wire) was diagnosed as a confident effect on a flat position.
+    outputs = tuple(attr for attr, _, _ in fitting.OUTPUT_COLUMNS.values())
     varying = [
         name
         for trace in fit_traces
@@ -1414,6 +1417,50 @@ def require_diagnosable(
             f"{names}: duty = 0 in every row; expected a trace in which the wire is heated at some point "
             "(the diagnosis compares the model's response to the measured one)"
         )
+
+
+GAP_FACTOR = 20.0
+"""A time step this many times the file's median step is reported as a gap."""
+
+
+def data_notes(traces: Sequence[MeasuredTrace]) -> list[str]:
+    """What a diagnosis of ``traces`` takes for granted that the files may contradict, one
+    sentence each (the command prints them; none stops the run): a force column, which is
+    not compared; no rest before the first heating, where every simulation starts; a gap in
+    the time stamps, across which the duty is held; a position that falls while heated."""
+    notes = []
+    for trace in traces:
+        name = Path(trace.path).name
+        if trace.force is not None:
+            notes.append(
+                f"{name}: its force column is checked but not compared: the model's force is its bias spring's, "
+                "set by the position (a clamped wire is not a case the model covers)"
+            )
+        first_on = np.flatnonzero(np.asarray(trace.duty) > 0)
+        if first_on.size and first_on[0] < fitting.MIN_REST_SAMPLES:
+            notes.append(
+                f"{name}: heated from row {first_on[0] + 1} on, with no rest before it; every simulation starts from "
+                "a wire at rest at the ambient temperature and the sensor zero is then fitted: if the file was cut "
+                "in the middle of a run, cut it where the wire is at rest"
+            )
+        steps = np.diff(np.asarray(trace.t, dtype=float))
+        if steps.size > 2:
+            k = int(np.argmax(steps))
+            median = float(np.median(steps))
+            if median > 0.0 and steps[k] > GAP_FACTOR * median:
+                notes.append(
+                    f"{name}: no sample for {steps[k]:.3g} s after t = {trace.t[k]:.6g} s ({steps[k] / median:.0f}x "
+                    "its median step); the duty is held across the gap: if the logger dropped samples, cut the file "
+                    "there"
+                )
+        x = np.asarray(trace.position, dtype=float)
+        x = x[np.isfinite(x)] - x[np.isfinite(x)][0] if np.isfinite(x).any() else x[:0]
+        if x.size and x.min() < -1e-3 and -x.min() > 3.0 * max(x.max(), 0.0):
+            notes.append(
+                f"{name}: the position falls {-x.min() * 1e3:.3g} mm below its start and rises at most "
+                f"{max(x.max(), 0.0) * 1e3:.3g} mm; this format counts contraction as positive: is the sign reversed?"
+            )
+    return notes
 
 
 def _require_file(trace: MeasuredTrace, control_period_s: float) -> None:
