@@ -358,6 +358,19 @@ class BankAgent:
         self.name = name
         self.residual = residual
 
+    @classmethod
+    def from_policy(cls, agent: Any, env: Any) -> BankAgent:
+        """The bank agent that ``agent`` (:func:`sma_gym_agents.trained.load_policy` of a model
+        ``train.py`` wrote for ``SMAMultiplexed-v0``) is, acting on ``env``'s banks, with the
+        residual base it trained on."""
+        scheme = str(agent.env_kwargs.get("scheme", "fixed_slots"))
+        residual = (
+            None
+            if agent.residual is None
+            else BankResidual(env, agent.residual, agent.residual_scale, agent.residual_allocation)
+        )
+        return cls(agent.model, scheme, agent.name, residual)
+
     def reset(self) -> None:
         """A new episode: the model is memoryless; a residual base forgets its controllers' states."""
         if self.residual is not None:

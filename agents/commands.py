@@ -7,6 +7,7 @@ where :mod:`sma_gym.cli` finds them; ``sma_gym`` itself never imports ``sma_gym_
 from __future__ import annotations
 
 import argparse
+import os
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -167,6 +168,25 @@ def _require_scored(policy: str, env_id: str, experiments: Sequence[str]) -> Non
     )
 
 
+def agent_names(policies: Sequence[str], names: Sequence[str]) -> list[str]:
+    """The models' ``names`` (their cards'), each one that another shares (every model of a
+    sweep is "SAC agent") followed by the part of its path that tells them apart, e.g.
+    "SAC agent (seed-1/best_model)". The report has one row per name: without this every
+    model of a sweep but the first was lost."""
+    resolved = [Path(p).with_suffix(".zip").resolve() for p in policies]
+    for k, p in enumerate(resolved):
+        if p in resolved[:k]:
+            raise ValueError(f"--policy {policies[k]!r}: given twice; expected each model once")
+    out = list(names)
+    for name in set(names):
+        same = [k for k, n in enumerate(names) if n == name]
+        if len(same) > 1:
+            common = Path(os.path.commonpath([resolved[k].parent for k in same]))
+            for k in same:
+                out[k] = f"{name} ({resolved[k].relative_to(common).with_suffix('').as_posix()})"
+    return out
+
+
 def evaluate(
     out: str | None,
     policies: Sequence[str],
@@ -179,6 +199,8 @@ def evaluate(
     if n_seeds < 1:
         raise ValueError(f"seeds = {n_seeds!r}: expected an integer >= 1")
     agents = [load_policy(p) for p in policies]
+    names = agent_names(policies, [a.name for a in agents])
+    agents = [load_policy(p, name) if name != a.name else a for p, a, name in zip(policies, agents, names)]
     chosen = None if baselines is None else [evaluation.baseline(b) for b in baselines]
     results = evaluation.evaluate(agents, experiments, seeds=tuple(range(n_seeds)), baselines=chosen)
     if out:

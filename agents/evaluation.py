@@ -883,16 +883,12 @@ def bank_agent_entry(agent: AgentPolicy) -> PolicyEntry:
     """A bank agent (trained on ``SMAMultiplexed-v0``) as an entry: one model acting for every
     actuator (:class:`sma_gym_agents.bank.BankAgent`, with its residual base if it trained on
     one), at the control period it trained with."""
-    from sma_gym_agents.bank import BankAgent, BankResidual
+    from sma_gym_agents.bank import BankAgent
 
     kwargs = {k: v for k, v in agent.env_kwargs.items() if k in ("control_period_s", "energy_weight", "scheme")}
-    scheme = str(agent.env_kwargs.get("scheme", "fixed_slots"))
 
-    def make(env: Any, a: AgentPolicy = agent, s: str = scheme) -> BankAgent:
-        residual = (
-            None if a.residual is None else BankResidual(env, a.residual, a.residual_scale, a.residual_allocation)
-        )
-        return BankAgent(a.model, s, a.name, residual)
+    def make(env: Any, a: AgentPolicy = agent) -> BankAgent:
+        return BankAgent.from_policy(a, env)
 
     return PolicyEntry(
         agent.name,

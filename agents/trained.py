@@ -28,7 +28,8 @@ class AgentPolicy:
     """A trained stable-baselines3 model plus what is needed to evaluate it like it trained.
 
     ``frame_stack`` is the number of stacked observations (SB3's ``VecFrameStack``) the
-    model expects; the evaluation harness wraps its env accordingly. Like the reference
+    model expects; ``predict`` stacks raw observations itself (and passes ones the
+    evaluation harness stacked). Like the reference
     controllers, it keeps state between calls (the residual's base controller, the history
     features): pass ``episode_start`` or call :meth:`reset` after ``env.reset()``.
     """
@@ -53,8 +54,14 @@ class AgentPolicy:
     def __post_init__(self) -> None:
         self._features: HistoryFeatures | None = None
         self._residual: ResidualStep | None = None
+        self._stacked: np.ndarray | None = None
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        if self.env_id == BANK_ENV_ID:
+            raise ValueError(
+                f"{self.name}: a bank model (trained on {BANK_ENV_ID}) sees one actuator's row at a time: "
+                "run it on a bank's observations as sma_gym_agents.bank.BankAgent.from_policy(agent, env)"
+            )
         obs = np.asarray(observation, dtype=float)
         single = obs.ndim == 1
         batch = obs[None, :] if single else obs
@@ -65,13 +72,15 @@ class AgentPolicy:
                     f"episode_start has {starts.size} entries: expected {len(batch)} (one per observation of the batch)"
                 )
         else:  # no flags: the first call starts an episode, later calls continue it
-            starts = np.full(len(batch), self._features is None and self._residual is None)
+            starts = np.full(len(batch), self._features is None and self._residual is None and self._stacked is None)
         if self.residual is not None:
             if self._residual is None:
                 self._residual = self._make_residual()
             batch = self._residual.observe(batch, starts)
         if self.history != "none":
             batch = self._with_history(batch, starts)
+        if self.frame_stack > 1:
+            batch = self._with_stack(batch, starts)
         action, state = self.model.predict(batch, state=state, episode_start=episode_start, deterministic=deterministic)
         if self._residual is not None:
             action = self._residual.action(action)
@@ -92,10 +101,26 @@ class AgentPolicy:
         out, _ = self._features.update(batch, starts)
         return out
 
+    def _with_stack(self, batch: np.ndarray, starts: np.ndarray) -> np.ndarray:
+        """Raw observations stacked as SB3's ``VecFrameStack`` stacked them in training (the
+        oldest first, zeros before an episode's first); a batch already stacked (the
+        evaluation harness stacks itself) passes as it is."""
+        width = batch.shape[1]
+        if width * self.frame_stack != int(np.prod(self.model.observation_space.shape)):
+            return batch
+        if self._stacked is None or self._stacked.shape[0] != batch.shape[0]:
+            self._stacked = np.zeros((batch.shape[0], width * self.frame_stack))
+            starts = np.ones(batch.shape[0], dtype=bool)
+        self._stacked[:, :-width] = self._stacked[:, width:].copy()
+        self._stacked[starts, :-width] = 0.0
+        self._stacked[:, -width:] = batch
+        return self._stacked.copy()
+
     def reset(self) -> None:
-        """Forget the base controller's and the history features' state (a new episode)."""
+        """Forget the base controller's, the history features' and the stacked frames' state (a new episode)."""
         self._features = None
         self._residual = None
+        self._stacked = None
 
     @classmethod
     def from_card(cls, model: Any, card: PolicyCard, name: str | None = None) -> AgentPolicy:

@@ -4,6 +4,7 @@ T6 (Table 6.1), T7 (chapter 7) and T8 (chapter 9) as the simulator reproduces th
 Findings it does not reproduce are listed in docs/baselines.md with the reason, not asserted.
 """
 
+import dataclasses
 import json
 
 import gymnasium as gym
@@ -388,3 +389,49 @@ def test_oscillation_is_motion_about_the_trend_not_a_settling_tail_or_a_drift():
     assert raw[1] > OSCILLATION_P2P_M and p2p[1] < 1e-12
     # (Within 15 %: a line fitted to a sine tilts with its phase, by up to 12 % here.)
     assert p2p[2] == pytest.approx(0.16e-3, rel=0.15) and p2p[2] > OSCILLATION_P2P_M
+
+
+def test_evaluate_tells_apart_the_models_of_a_sweep_that_share_their_cards_name(tmp_path):
+    """Every model of a sweep is "SAC agent": the report has one row per name, so all but the
+    first were lost without a word (found by a user comparing a sweep's seeds)."""
+    from sma_gym_agents.commands import agent_names
+
+    paths = [str(tmp_path / f"sweep/seed-{k}/best_model.zip") for k in range(3)] + [str(tmp_path / "other.zip")]
+    names = agent_names(paths, ["SAC agent"] * 3 + ["PPO agent"])
+    assert names == [
+        "SAC agent (seed-0/best_model)",
+        "SAC agent (seed-1/best_model)",
+        "SAC agent (seed-2/best_model)",
+        "PPO agent",
+    ]
+    with pytest.raises(ValueError, match="given twice"):
+        agent_names([paths[0], paths[0].removesuffix(".zip")], ["SAC agent"] * 2)
+
+
+def test_a_loaded_frame_stacked_agent_stacks_raw_observations_as_vec_frame_stack_did(tmp_path):
+    """``load_policy`` promised ``predict`` on raw env observations, but a ``--frame-stack``
+    model refused them (shape (1, 10) against (40,)); a bank model now says what runs it."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import VecFrameStack
+    from stable_baselines3.common.vec_env.stacked_observations import StackedObservations
+
+    from sma_gym_agents.trained import load_policy, save_policy
+
+    stacked = VecFrameStack(make_vec_env("sma_gym:SMATracking-v0", n_envs=1, seed=0), n_stack=3)
+    model = PPO("MlpPolicy", stacked, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
+    card = {"format": "sma-gym-policy", "algo": "PPO", "name": "fs3", "env_id": "SMATracking-v0"}
+    agent = load_policy(save_policy(model, tmp_path / "fs3.zip", {**card, "env_kwargs": {}, "frame_stack": 3}))
+    raw = gym.make("sma_gym:SMATracking-v0")
+    obs, _ = raw.reset(seed=4)
+    stacker = StackedObservations(1, 3, raw.observation_space)  # what VecFrameStack uses
+    frames = stacker.reset(obs[None])
+    for k in range(6):
+        mine, _ = agent.predict(obs, deterministic=True)
+        theirs, _ = model.predict(frames, deterministic=True)
+        assert np.allclose(mine, theirs[0]), k
+        obs, *_ = raw.step(mine)
+        frames, _ = stacker.update(obs[None], np.array([False]), [{}])
+    bank = dataclasses.replace(agent, env_id="SMAMultiplexed-v0")
+    with pytest.raises(ValueError, match=r"BankAgent\.from_policy"):
+        bank.predict(np.zeros(10))

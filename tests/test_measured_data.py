@@ -54,7 +54,9 @@ def test_diagnose_says_which_conditions_no_sidecar_gives_and_what_it_assumes(tmp
 
     path, _ = write_synth(SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, seed=1), tmp_path / "run.csv")
     (tmp_path / "run.csv.json").unlink()
-    bare_run, _ = write_synth(SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, seed=2), tmp_path / "bare.csv")
+    bare_run, _ = write_synth(
+        SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, seed=2), tmp_path / "bare.csv"
+    )
     (tmp_path / "bare.csv.json").unlink()
     # An unknown effect stops the command once the files and the model are read.
     args = ["diagnose", str(path), str(bare_run), "--model", "bench-0.5mm-ht-datasheet", "--effects", "warp"]

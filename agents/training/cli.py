@@ -53,7 +53,16 @@ def main(argv: list[str] | None = None) -> int:
         if out is None or not out.exists():
             print(f"train.py: {how}", file=sys.stderr)
         elif sweep:
-            print(f"train.py: {how}; --resume --out {out} continues the sweep", file=sys.stderr)
+            from sma_gym_agents.training.sweep import finished_note
+
+            print(f"train.py: {how}; {finished_note(out)}; --resume --out {out} continues the sweep", file=sys.stderr)
+        elif (out / "final_model.zip").is_file():
+            print(
+                f"train.py: {how} while scoring; training had finished: {out / 'final_model.zip'} is kept (and "
+                f"best_model.zip if validation had run) but no results.md; `sma-gym evaluate --policy "
+                f"{out / 'final_model.zip'}` scores it, or pass --overwrite to train again",
+                file=sys.stderr,
+            )
         else:
             print(
                 f"train.py: {how}; {out} keeps the checkpoints written so far (checkpoints/, "

@@ -236,8 +236,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--env-kwargs",
         nargs="+",
         metavar="KEY:VALUE",
-        help="make kwargs over the file's env_kwargs, as RL Zoo's --env-kwargs (a value is read as a Python "
-        "literal, else as a string), e.g. n_actuators:16 scheme:shared_budget",
+        help="make kwargs merged over the file's env_kwargs (RL Zoo's --env-kwargs replaces them instead; a value "
+        "is read as a Python literal, else as a string), e.g. n_actuators:16 scheme:shared_budget",
     )
     p.add_argument(
         "--hyperparams",

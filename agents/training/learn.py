@@ -40,6 +40,8 @@ class TrainingInfo:
 
     train_time_s: float
     validation_references: list[dict[str, Any]]
+    timesteps: int = 0
+    """Steps trained (PPO completes its last rollout: more than asked)."""
 
 
 def progress_line(done: int, total: int, elapsed_s: float) -> str:
@@ -142,16 +144,18 @@ def train(run: RunConfig, out: Path, progress: bool = True) -> TrainingInfo:
     start = time.perf_counter()
     model.learn(total_timesteps=run.timesteps, callback=CallbackList(items), progress_bar=bar, tb_log_name=run.algo)
     train_s = time.perf_counter() - start
-    save_policy(model, out / "final_model.zip", run.card("final model", timesteps=run.timesteps, train_time_s=train_s))
+    # What it trained, not what was asked: PPO finishes its last rollout (32 envs x 64 steps).
+    trained = int(model.num_timesteps)
+    save_policy(model, out / "final_model.zip", run.card("final model", timesteps=trained, train_time_s=train_s))
     _finish_best(run, model, evaluation, best, train_s)
     venv.close()
     eval_env.close()
-    return TrainingInfo(train_time_s=train_s, validation_references=references)
+    return TrainingInfo(train_time_s=train_s, validation_references=references, timesteps=trained)
 
 
 def _finish_best(run: RunConfig, model: Any, evaluation: EvalCallback, best: Path, train_s: float) -> None:
     """The best model's final card: the step it was chosen at and the training time."""
-    best_at = run.timesteps
+    best_at = int(model.num_timesteps)
     saved_best = best.exists()  # only SaveBest writes it: --out was empty or cleared (prepare_out)
     if saved_best and evaluation.evaluations_timesteps:
         returns = [float(np.mean(r)) for r in evaluation.evaluations_results]

@@ -45,7 +45,7 @@ def train_and_compare(
         total = time.perf_counter() - started
         table += (
             f"\nTraining {info.train_time_s / 60:.1f} min, training + evaluation {total / 60:.1f} min "
-            f"({run.timesteps} steps, {run.n_envs} envs, seed {run.seed}); {describe(source)}.\n"
+            f"({info.timesteps or run.timesteps} steps, {run.n_envs} envs, seed {run.seed}); {describe(source)}.\n"
         )
         write_text(out / "results.md", table)
         write_json(

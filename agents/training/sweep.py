@@ -95,6 +95,10 @@ def goal_status(goal: Goal, entry: dict[str, Any]) -> str:
     return "met" if met else "missed"
 
 
+BASELINE_LABELS = {"best_baseline_mm": "the best baseline of each seed", "vsc3_ff_mm": "VSC3 + FF"}
+"""How ``seeds.md`` names a goal's baseline figure (the key of ``goals.json``)."""
+
+
 def summarise_seeds(
     goals_by_seed: dict[int, dict[str, dict[str, Any]]],
     resamples: int = BOOTSTRAP_RESAMPLES,
@@ -172,8 +176,9 @@ def seeds_table(
 
     for name, entry in summary.items():
         baseline = next(k for k in entry if k not in ("agent_mm", "met", "seeds", "status"))
+        label = BASELINE_LABELS.get(baseline, baseline.removesuffix("_mm"))
         lines.append(
-            f"| {name} | {cell(entry['agent_mm'])} | {cell(entry[baseline])} ({baseline.removesuffix('_mm')}) "
+            f"| {name} | {cell(entry['agent_mm'])} | {cell(entry[baseline])} ({label}) "
             f"| {entry['met']}/{entry['seeds']} | {entry.get('status', '–')} |"
         )
     if failed:
@@ -362,10 +367,13 @@ def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int
             # Only with --resume: an interrupted or failed run of this seed, started over.
             argv.append("--overwrite")
         code = _run_seed_process(argv, out / "logs" / f"seed-{seed}.log", run.threads, children)
-        print(
-            f"train.py: seed {seed} {'done' if code == 0 else f'FAILED (exit {code}, see logs/seed-{seed}.log)'}",
-            flush=True,
-        )
+        if code == 0:
+            status = "done"
+        elif code in STOPPED_CODES:
+            status = f"stopped (exit {code}: interrupted, not failed; --resume runs it again)"
+        else:
+            status = f"FAILED (exit {code}, see logs/seed-{seed}.log)"
+        print(f"train.py: seed {seed} {status}", flush=True)
         return code
 
     # Threads only wait on the child processes, which do the work.
@@ -465,6 +473,24 @@ def check_sweep_args(args: argparse.Namespace) -> None:
         raise ValueError(f"--workers {args.workers}: expected an integer >= 1")
 
 
+STOPPED_CODES = (130, 143, -2, -15)
+"""A seed's exit codes when it was stopped (Ctrl-C, SIGTERM: the shell's 128 + n, or the
+negative signal number), not failed: the sweep's own interrupt reaches its children too."""
+
+
+def finished_note(out: Path) -> str:
+    """Which seeds of the sweep in ``out`` finished (their ``goals.json``), for the line an
+    interrupted sweep prints."""
+    import re
+
+    done = sorted(
+        int(m.group(1))
+        for p in out.glob("seed-*/goals.json")
+        if (m := re.fullmatch(r"seed-(\d+)", p.parent.name)) is not None
+    )
+    return f"seeds {', '.join(map(str, done))} finished and are kept" if done else "no seed finished yet"
+
+
 def sweep_main(args: argparse.Namespace, run: RunConfig) -> int:
     """``train.py --seeds N``: the folder checked and locked, the sweep, its table printed;
     0, or 1 if seeds failed."""
@@ -473,9 +499,17 @@ def sweep_main(args: argparse.Namespace, run: RunConfig) -> int:
     if args.resume and not args.out:
         raise ValueError("--resume: give the --out folder of the sweep to continue")
     out = Path(args.out) if args.out else default_sweep_out(run)
-    check_output_folder(out, must_be_empty=not (args.overwrite or args.resume))
+    try:
+        check_output_folder(out, must_be_empty=not (args.overwrite or args.resume))
+    except ValueError as err:
+        if not (out / "seeds.json").is_file() and not any(out.glob("seed-*")):
+            raise
+        # --overwrite deletes the finished seeds; --resume keeps them.
+        raise ValueError(f"{err} (--resume continues this sweep and keeps its finished seeds)") from None
     if args.resume:
         require_sweep_folder(out)
+        if not out.exists():
+            print(f"train.py: --resume: {out} does not exist yet; nothing to continue, the sweep starts", flush=True)
     with locked_folder(out):
         if args.overwrite:
             prepare_sweep_out(out)
@@ -500,7 +534,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt as err:  # as train.py's (a traceback before 2026-12-06)
         how, code = stopped(err)
-        print(f"train.py: {how}; --resume with the same options continues the sweep", file=sys.stderr)
+        kept = finished_note(Path(args.out)) if getattr(args, "out", None) else "the finished seeds are kept"
+        print(f"train.py: {how}; {kept}; --resume with the same options continues the sweep", file=sys.stderr)
         return code
 
 
