@@ -7,6 +7,7 @@ where :mod:`sma_gym.cli` finds them; ``sma_gym`` itself never imports ``sma_gym_
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -200,7 +201,7 @@ def evaluate(
         raise ValueError(f"seeds = {n_seeds!r}: expected an integer >= 1")
     agents = [load_policy(p) for p in policies]
     names = agent_names(policies, [a.name for a in agents])
-    agents = [load_policy(p, name) if name != a.name else a for p, a, name in zip(policies, agents, names)]
+    agents = [dataclasses.replace(a, name=name) for a, name in zip(agents, names)]
     chosen = None if baselines is None else [evaluation.baseline(b) for b in baselines]
     results = evaluation.evaluate(agents, experiments, seeds=tuple(range(n_seeds)), baselines=chosen)
     if out:

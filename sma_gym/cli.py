@@ -175,27 +175,21 @@ def _require_distinct_inputs(files: Sequence[str], heldout: Sequence[str]) -> No
     the same file (a link) or a copy with the same bytes."""
     from sma_gym._io import sha256_file
 
-    seen: dict[object, str] = {}
+    how = {"path": "already given", "inode": "the same file", "sha256": "the same data"}
+    seen: dict[tuple[str, object], str] = {}
     for what, names in (("fit file", files), ("--heldout", heldout)):
         for name in names:
             path = Path(name)
-            keys: list[object] = [path.resolve()]
+            keys: list[tuple[str, object]] = [("path", path.resolve())]
             if path.is_file():
                 st = path.stat()
-                keys.append((st.st_dev, st.st_ino))
+                keys.append(("inode", (st.st_dev, st.st_ino)))
                 with contextlib.suppress(OSError):  # unreadable: loading it names the problem
                     keys.append(("sha256", sha256_file(path)))
             for key in keys:
                 if key in seen:
-                    how = (
-                        "already given"
-                        if isinstance(key, Path)
-                        else "the same data"
-                        if key[0] == "sha256"  # type: ignore[index]
-                        else "the same file"
-                    )
                     raise ValueError(
-                        f"{what} {name!r}: {how} as {seen[key]}; each measured file may appear once "
+                        f"{what} {name!r}: {how[key[0]]} as {seen[key]}; each measured file may appear once "
                         "(held-out data must not be fitted)"
                     )
             for key in keys:

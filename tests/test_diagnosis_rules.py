@@ -1404,3 +1404,13 @@ def test_an_effect_a_later_round_made_redundant_is_taken_out(cost_without, rms_w
         gain = records[1]["heldout_gain_of_keeping"]
         bars = records[1]["delta_bic_of_keeping"] > -workflow.BIC_THRESHOLD, gain <= workflow.PRUNE_MARGIN
         assert any(bars)
+
+
+def test_the_generic_way_to_tell_candidates_apart_fits_their_number_and_the_data():
+    """It said "both effects ... with resistance measured" for four candidates on files that
+    measured resistance (found by a user)."""
+    from sma_gym.diagnosis.workflow import generic_experiment
+
+    assert "both effects" in generic_experiment(2, False) and "with resistance measured" in generic_experiment(2, False)
+    four = generic_experiment(4, True)
+    assert "the 4 candidates" in four and "resistance" not in four

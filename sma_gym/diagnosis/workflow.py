@@ -235,7 +235,16 @@ SEPARATING_EXPERIMENTS = {
         {"minor_loop_width", "sensor_lag"}
     ): "reversals at several speeds: a lag grows with speed, a wide minor loop holds for the same temperature change at any speed",
 }
-GENERIC_EXPERIMENT = "an excitation that exercises both effects differently: several supply voltages, PWM frequencies and slow and fast motions, with resistance measured"
+
+
+def generic_experiment(n_candidates: int, electrical: bool) -> str:
+    """How to tell apart candidates without a specific experiment (:data:`SEPARATING_EXPERIMENTS`):
+    worded for their number, and asking for resistance only where it was not measured."""
+    which = "both effects" if n_candidates == 2 else f"the {n_candidates} candidates"
+    return (
+        f"an excitation that exercises {which} differently: several supply voltages, PWM frequencies and slow "
+        "and fast motions" + ("" if electrical else ", with resistance measured")
+    )
 
 
 @dataclass
@@ -1189,7 +1198,7 @@ def _judge(
         rivals = [min(others, key=lambda c: c.heldout_score)] if others else []
     if rivals or unidentifiable:
         names = [best.name] + [c.name for c in rivals]
-        separating = SEPARATING_EXPERIMENTS.get(frozenset(names[:2]), GENERIC_EXPERIMENT)
+        separating = SEPARATING_EXPERIMENTS.get(frozenset(names[:2])) or generic_experiment(len(names), electrical)
         if not electrical and any(n in NEEDS_ELECTRICAL for n in names[:2]):
             separating = next(NEEDS_ELECTRICAL[n] for n in names[:2] if n in NEEDS_ELECTRICAL)
         return _Round("ambiguous", names, ref, best, candidates, separating, as_given)
