@@ -242,7 +242,9 @@ class PolicyCard:
                 f"policy {str(zip_path)!r}: no card {str(path)!r} beside it; a model without its card is "
                 "incomplete (interrupted training?) or not written by train.py. A model you trained yourself on "
                 "a plain env: write its card with sma_gym_agents.PolicyCard(algo='SAC', env_id='SMATracking-v0', "
-                f"env_kwargs={{...}}).save({str(zip_path)!r}) (the algo and env it trained on, and the env's kwargs)"
+                f"env_kwargs={{...}}).save({str(zip_path)!r}) (the algo and env it trained on, and the env's kwargs); "
+                "one trained by RL Zoo on hyperparams/*.yml also gives its entry's wrappers: history='ema' for "
+                "HistoryVecEnv, residual=<base>, residual_scale=<scale>, residual_filter_s=<filter_s> for ResidualVecEnv"
             )
         values = read_json_object(path, "policy card")
         where = f"policy card {str(path)!r}"

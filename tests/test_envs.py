@@ -601,6 +601,11 @@ def test_a_wire_shorter_than_the_cut_scales_and_draws_within_its_own_stroke():
         levels = [v for k, v in ref.items() if k.startswith("level") and isinstance(v, float)]
         levels += list(ref.get("levels_m", [])) + ([ref["offset_m"] + ref["amplitude_m"]] if "offset_m" in ref else [])
         assert max(levels) <= short.usable_stroke_m, ref
+    # The report's step is a fixed 8 mm: refused by name rather than run into an overheat.
+    with pytest.raises(
+        ValueError, match=r"reference 'report-step' its top level = 0.008: expected a position in \[0, 0.006\]"
+    ):
+        env.reset(seed=0, options={"reference": "report-step"})
 
 
 def test_the_compiled_features_follow_their_documented_definitions_and_order():

@@ -1494,7 +1494,13 @@ def test_diagnose_notes_what_it_takes_for_granted_that_a_file_contradicts():
     assert len(notes) == 4, notes
     assert notes[0].startswith("mid.csv: heated from row 1 on, with no rest before it")
     assert notes[1].startswith("gap.csv: no sample for 5 s after t = 1 s")
-    assert notes[2].startswith("flipped.csv: the position falls 2.4 mm below its start") and "sign" in notes[2]
+    assert (
+        notes[2].startswith("flipped.csv: the position falls 2.4 mm below its rest once heated") and "sign" in notes[2]
+    )
+    # A file cut while the wire cools falls from its start: said to have no rest, not a reversed sign.
+    cooling = MeasuredTrace("cooling.csv", t, np.full_like(t, 0.05), 10e-3 - rise)
+    assert [n.split(":")[0] for n in data_notes([cooling])] == ["cooling.csv"]
+    assert "no rest before it" in data_notes([cooling])[0]
     assert notes[3].startswith("weighed.csv: its force column is checked but not compared")
 
 
@@ -1528,12 +1534,17 @@ def test_diagnose_never_makes_its_report_a_data_files_sidecar_nor_writes_over_a_
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "fit_2_bench_vs_fem.png").write_text("my figure")
+    (mine / "diagnosis.md").write_text("my notes")  # an output's name, but no diagnosis.json beside it
     assert previous_outputs(mine) == []
     (mine / "fit_0_run.png").write_text("my other figure")
     run = tmp_path / "run.csv"
     assert main(["diagnose", str(run), "--out", str(mine), "--overwrite"]) == 2
     assert "not written by an earlier diagnosis" in capsys.readouterr().err
     assert (mine / "fit_0_run.png").read_text() == "my other figure"
+    (mine / "fit_0_run.png").unlink()
+    assert main(["diagnose", str(run), "--out", str(mine), "--overwrite"]) == 2
+    assert "diagnosis.md, not written by an earlier diagnosis" in capsys.readouterr().err
+    assert (mine / "diagnosis.md").read_text() == "my notes"
 
 
 def test_an_interrupt_while_a_diagnosis_writes_leaves_the_earlier_set_whole(tmp_path, monkeypatch):

@@ -363,24 +363,21 @@ def output_paths(out: Path, fit_traces: Sequence[MeasuredTrace], heldout_traces:
 RECORD_KEY = "outputs"
 """The key of ``diagnosis.json`` that lists the files the run wrote into its folder."""
 
-_ALWAYS = tuple(name for name in OUTPUT_PATTERNS if "*" not in name)
-
 
 def previous_outputs(out: Path) -> list[Path]:
     """The files an earlier diagnosis wrote into ``out``: those its ``diagnosis.json`` lists,
-    or (a run from before that list) those matching :data:`OUTPUT_PATTERNS`, but only beside
-    its report; a folder without one holds no earlier diagnosis, whatever its files are named."""
-    if not out.is_dir():
-        return []
+    or (a run from before that list) those matching :data:`OUTPUT_PATTERNS`. Every run
+    writes ``diagnosis.json``: a folder without one holds no earlier diagnosis, whatever its
+    files are named."""
     record = out / "diagnosis.json"
+    if not record.is_file():
+        return []
     try:
         listed = json.loads(record.read_text()).get(RECORD_KEY)
     except (OSError, ValueError, AttributeError):
         listed = None
     if isinstance(listed, list) and all(isinstance(n, str) and Path(n).name == n for n in listed):
         return sorted(out / n for n in set(listed) | {"diagnosis.json"} if (out / n).is_file())
-    if not any((out / name).is_file() for name in _ALWAYS):
-        return []
     return sorted({p for pattern in OUTPUT_PATTERNS for p in out.glob(pattern) if p.is_file()})
 
 

@@ -1415,8 +1415,9 @@ def require_diagnosable(
     if fit_traces and not varying:
         names = ", ".join(str(t.path) for t in fit_traces)
         raise ValueError(
-            f"{names}: no measured output varies (position and every other measured column are constant over the "
-            "whole data); expected a trace in which the wire moves or its resistance changes: is the sensor connected?"
+            f"{names}: no measured output varies that the diagnosis compares (position, resistance, current and "
+            "supply voltage are constant or absent over the whole data; a force column is not compared); expected a "
+            "trace in which the wire moves or its resistance changes: is the sensor connected?"
         )
     if fit_traces and all(float(np.max(np.asarray(t.duty, dtype=float))) <= 0.0 for t in fit_traces):
         # Only noise to fit: every model "explains" it, and a verdict of "no missing effect"
@@ -1463,12 +1464,15 @@ def data_notes(traces: Sequence[MeasuredTrace]) -> list[str]:
                     "there"
                 )
         x = np.asarray(trace.position, dtype=float)
-        x = x[np.isfinite(x)] - x[np.isfinite(x)][0] if np.isfinite(x).any() else x[:0]
-        if x.size and x.min() < -1e-3 and -x.min() > 3.0 * max(x.max(), 0.0):
-            notes.append(
-                f"{name}: the position falls {-x.min() * 1e3:.3g} mm below its start and rises at most "
-                f"{max(x.max(), 0.0) * 1e3:.3g} mm; this format counts contraction as positive: is the sign reversed?"
-            )
+        if first_on.size and first_on[0] >= fitting.MIN_REST_SAMPLES and np.isfinite(x[: first_on[0]]).all():
+            # From the rest before the first heating (a file cut mid-run falls as it cools: said above).
+            x = x[np.isfinite(x)] - float(np.mean(x[: first_on[0]]))
+            if x.min() < -1e-3 and -x.min() > 3.0 * max(x.max(), 0.0):
+                notes.append(
+                    f"{name}: the position falls {-x.min() * 1e3:.3g} mm below its rest once heated and rises at "
+                    f"most {max(x.max(), 0.0) * 1e3:.3g} mm; this format counts contraction as positive: is the sign "
+                    "reversed?"
+                )
     return notes
 
 

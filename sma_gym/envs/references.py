@@ -203,10 +203,13 @@ def resolve(spec: Any, rng: np.random.Generator, stroke_m: float, default: str |
     if isinstance(spec, Reference):
         return spec
     if isinstance(spec, str):
-        if spec == "report-step":
-            return report_step()
-        if spec == "report-sine":
-            return report_sine()
+        if spec in ("report-step", "report-sine"):
+            # The report's fixed levels (8 mm; 1 -> 7 mm): beyond a short wire's stroke, an
+            # episode would drive it to overheat.
+            ref = report_step() if spec == "report-step" else report_sine()
+            top = REPORT_STEP_M if spec == "report-step" else REPORT_SINE_OFFSET_M + REPORT_SINE_AMPLITUDE_M
+            _check_level(spec, "its top level", top, stroke_m)
+            return ref
         if spec in TRAINING_KINDS:
             return draw(spec, rng, stroke_m)
         raise ValueError(f"reference = {spec!r}: expected one of {', '.join(map(repr, NAMED))}")
