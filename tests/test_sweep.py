@@ -165,12 +165,15 @@ def test_a_sweep_runs_every_seed_in_its_own_folder_and_writes_the_table(tmp_path
     assert goal["status"] == "missed"  # the env's goal definition applied: 1.6 mm is not below 1.0 mm
     table = (out / "seeds.md").read_text()
     assert "| RMS step below every baseline | 1.600 [" in table and "| 2/3 | missed |" in table
+    assert "(the best baseline of each seed)" in table  # named, not the JSON key "best_baseline"
     assert "Failed seeds" in table
     # Seed 12 ran other code than 10 and 11: the table says so, and seeds.json keeps each.
     assert "did not all run the same code" in table and "seeds 10, 11: sma-gym 0.1.0, commit aaaaaaaaaaaa" in table
     assert data["provenance"]["12"]["commit"] == "b" * 40
-    # A sweep never mixes with another's files: refused, then replaced with --overwrite.
+    # A sweep never mixes with another's files: refused (naming --resume, which keeps the
+    # finished seeds that --overwrite deletes), then replaced with --overwrite.
     assert main(["--seeds", "2", "--quick", "--out", str(out)]) == 2
+    assert "--resume continues this sweep and keeps its finished seeds" in capsys.readouterr().err
     assert main(["--seeds", "2", "--quick", "--out", str(out), "--overwrite"]) == 0
     assert sorted(p.name for p in out.glob("seed-*")) == ["seed-0", "seed-1"]
 

@@ -109,6 +109,17 @@ def test_ctrl_c_ends_train_py_with_a_line_not_a_traceback_and_keeps_the_checkpoi
     def before_any_file(run, out, **kwargs):
         raise KeyboardInterrupt
 
+    def while_scoring(run, out, **kwargs):
+        out.mkdir(parents=True)
+        (out / "final_model.zip").write_bytes(b"PK")  # training finished; the comparison was running
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(run_module, "train_and_compare", while_scoring)
+    assert main(["--quick", "--no-progress", "--out", str(tmp_path / "scored")]) == 130
+    err = capsys.readouterr().err
+    assert "interrupted while scoring" in err and "no final model" not in err
+    assert f"sma-gym evaluate --policy {tmp_path / 'scored' / 'final_model.zip'}" in err
+
     monkeypatch.setattr(run_module, "train_and_compare", before_any_file)
     assert main(["--quick", "--no-progress", "--out", str(tmp_path / "never")]) == 130
     assert capsys.readouterr().err.strip() == "train.py: interrupted"
