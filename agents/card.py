@@ -25,12 +25,14 @@ when it is not 0, so cards written before they existed read as they were.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from sma_gym._io import read_json_object, sha256_file, write_json
+from sma_gym.model import load_model, model_names
 from sma_gym_agents.history import HISTORIES
 
 CARD_FORMAT = "sma-gym-policy"
@@ -70,6 +72,15 @@ def _is_number(value: Any) -> bool:
 
 FILTER_S_EXPECTED = "a time constant >= 0 s (0: no filter)"
 """What a residual's low-pass time constant ``filter_s`` may be (card, run, ResidualStep)."""
+
+
+def card_model(model: Any) -> Any:
+    """A model as a card holds it: a preset or twin name as given, anything else (a model
+    file's path, ActuatorParams, ModelConfig, a dict) as its full configuration, so the card
+    runs the agent on the actuator it trained on even after the file is edited or moved."""
+    if model is None or (isinstance(model, (str, os.PathLike)) and os.fspath(model) in model_names()):
+        return None if model is None else os.fspath(model)
+    return load_model(model).to_dict()
 
 
 def is_filter_time_constant(value: Any) -> bool:
@@ -146,7 +157,8 @@ class PolicyCard:
     name: str = ""
     """The name tables and plots show (empty: the zip's name)."""
     env_kwargs: dict[str, Any] = field(default_factory=dict)
-    """Make kwargs of the training env."""
+    """Make kwargs of the training env; its ``model`` is a preset or twin name, or the model's
+    full configuration (:func:`card_model`), never a path that could change."""
     frame_stack: int = 1
     """Stacked observations (stable-baselines3's ``VecFrameStack``) the model expects."""
     history: str = "none"
@@ -172,6 +184,10 @@ class PolicyCard:
     version: int = CARD_VERSION
 
     def __post_init__(self) -> None:
+        model = self.env_kwargs.get("model")
+        if model is not None and not isinstance(model, (str, os.PathLike)):
+            # A configuration given in Python (ActuatorParams, ModelConfig) is held as its JSON form.
+            object.__setattr__(self, "env_kwargs", {**self.env_kwargs, "model": card_model(model)})
         problems = _problems(self.as_dict())
         if problems:
             name, expected = problems[0]
@@ -225,7 +241,10 @@ class PolicyCard:
         """Write (atomically) this card beside the existing zip ``model_path``, with the zip's
         SHA-256; returns the card's path."""
         digest = sha256_file(model_path)
-        return write_json(card_path(model_path), replace(self, model_sha256=digest).as_dict())
+        card = replace(self, model_sha256=digest)
+        if "model" in self.env_kwargs:
+            card = replace(card, env_kwargs={**self.env_kwargs, "model": card_model(self.env_kwargs["model"])})
+        return write_json(card_path(model_path), card.as_dict())
 
     @classmethod
     def load(cls, model_path: str | Path) -> PolicyCard:

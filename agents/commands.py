@@ -209,7 +209,8 @@ def evaluate(
     if as_json:
         print(results.to_json())
     else:
-        print(table_6_1_markdown(results) if "6.1" in experiments else f"{len(results.records)} metrics")
+        tables = [table_6_1_markdown(results, c) for c in results.distinct("6.1", "condition")]
+        print("\n\n".join(tables) if tables else f"{len(results.records)} metrics")
         if out:
             print(f"\nreport written to {Path(out).resolve() / 'evaluation.md'} ({len(paths)} files)")
     return 0

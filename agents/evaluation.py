@@ -49,6 +49,7 @@ import numpy as np
 
 from sma_gym._validation import require_positive
 from sma_gym.electrical.multiplexer import SCHEMES
+from sma_gym.model import load_model
 from sma_gym_agents.bank import bank_policy
 from sma_gym_agents.card import ALLOCATIONS, BANK_ENV_ID
 from sma_gym_agents.controllers import (
@@ -322,9 +323,12 @@ def rollouts(
         for key in _RECORD:
             record[key].append(np.asarray(info[key], dtype=float))
         if np.any(terminated | truncated):
-            names = [entries[i // width].name for i in np.flatnonzero(terminated | truncated)]
-            raise RuntimeError(
-                f"{', '.join(dict.fromkeys(names))}: an evaluation episode ended early (overheated?) at t = {info['time_s']} s"
+            ended = np.flatnonzero(terminated | truncated)
+            venv.close()
+            raise EpisodeEnded(
+                {entries[i // width].name: float(np.asarray(info["time_s"])[i]) for i in ended[::-1]},
+                float(np.max(np.asarray(info["temperature_c"])[ended])),
+                str(reference),
             )
     venv.close()
     data = {k: np.asarray(v, dtype=float) for k, v in record.items()}
@@ -332,6 +336,41 @@ def rollouts(
     return [
         Trace(t=t, data={k: v[:, k_ * width : (k_ + 1) * width] for k, v in data.items()}) for k_ in range(len(entries))
     ]
+
+
+class EpisodeEnded(RuntimeError):
+    """An evaluation episode ended before its run did: the policy let the wire overheat
+    (the env's ``overheat_limit_c``). ``ended_s`` maps each such policy to the time [s]."""
+
+    def __init__(self, ended_s: dict[str, float], temperature_c: float, reference: str):
+        self.ended_s = ended_s
+        self.temperature_c = temperature_c
+        where = ", ".join(f"{name} at t = {t:.3f} s" for name, t in ended_s.items())
+        super().__init__(
+            f"reference {reference}: an evaluation episode ended early, {where} "
+            f"(overheated: {temperature_c:.1f} degC, the env's overheat limit)"
+        )
+
+
+ENDED_EARLY = "ended_early_s"
+"""The metric recorded instead of a policy's others when its episode overheated: the time it ended [s]."""
+
+
+def rollouts_that_finish(
+    entries: Sequence[PolicyEntry], results: Results, key: tuple[str, str, str], **options: Any
+) -> list[tuple[PolicyEntry, Trace]]:
+    """:func:`rollouts` of ``entries``; a policy whose episode overheats is recorded under
+    ``key`` (experiment, condition, reference) as :data:`ENDED_EARLY` and the others run
+    again without it, so one policy that overheats the wire does not cost the rest."""
+    while entries:
+        try:
+            return list(zip(entries, rollouts(entries, **options)))
+        except EpisodeEnded as ended:
+            experiment, condition, reference = key
+            for name, t in ended.ended_s.items():
+                results.records += _records(experiment, name, condition, reference, {ENDED_EARLY: np.array([t])})
+            entries = [e for e in entries if e.name not in ended.ended_s]
+    return []
 
 
 def batchable(entries: Sequence[PolicyEntry]) -> list[list[PolicyEntry]]:
@@ -567,16 +606,26 @@ def run_table_6_1(
     only, so another actuator's results are never compared with the report's.
     """
     if condition is None:
-        condition = "standard" if isinstance(model, str) and model == "standard" else f"model {_model_label(model)}"
+        condition = table_6_1_condition(model)
     for group in batchable(entries):
         _step_and_sine("6.1", group, model, condition, results, seeds, sine_seconds)
+
+
+def table_6_1_condition(model: Any) -> str:
+    """The condition Table 6.1 on ``model`` is recorded under: ``"standard"`` for the report's
+    standard model (given by that name or as None), else ``"model <name>"``."""
+    return "standard" if _is_standard(model) else f"model {_model_label(model)}"
+
+
+def _is_standard(model: Any) -> bool:
+    return model is None or (isinstance(model, str) and model == "standard")
 
 
 def _model_label(model: Any) -> str:
     """A model as a label: the name or path given, else the configuration's name."""
     if isinstance(model, (str, os.PathLike)):
         return str(model)
-    return str(getattr(model, "name", model))
+    return load_model(model).name
 
 
 def run_chapter_7(
@@ -609,8 +658,16 @@ def _step_and_sine(
         ("step", STEP_SECONDS, step_metrics),
         ("sine", sine_seconds, lambda tr: sine_metrics(tr, window)),
     ):
-        traces = rollouts(entries, model=model, reference=f"report-{reference}", seconds=seconds, seeds=seeds)
-        for entry, trace in zip(entries, traces):
+        runs = rollouts_that_finish(
+            entries,
+            results,
+            (experiment, condition, reference),
+            model=model,
+            reference=f"report-{reference}",
+            seconds=seconds,
+            seeds=seeds,
+        )
+        for entry, trace in runs:
             results.records += _records(experiment, entry.name, condition, reference, metrics(trace))
             results.traces[(experiment, entry.name, condition, reference)] = trace
 
@@ -639,14 +696,19 @@ def run_chapter_8(
 ) -> None:
     for label, preset_name, ramp_s, _ in cases:
         for entry in entries:
-            trace = rollout(
-                entry,
+            runs = rollouts_that_finish(
+                [entry],
+                results,
+                ("8", label, "1 -> 7 mm"),
                 model=preset_name,
                 reference=efficiency_reference(ramp_s),
                 seconds=EFFICIENCY_HOLD_S + EFFICIENCY_AFTER_S,
                 seeds=seeds,
                 noise_m=noise_m,
             )
+            if not runs:
+                continue
+            trace = runs[0][1]
             results.records += _records(
                 "8", entry.name, label, "1 -> 7 mm", {"efficiency_percent": efficiency_percent(trace)}
             )
@@ -816,16 +878,17 @@ def bank_tracking_references(n: int, seed: int, stroke_m: float) -> list[dict[st
 
 
 def bank_tracking(
-    entry: PolicyEntry, n: int, scheme: str, seed: int = 0, noise_m: float = EVAL_NOISE_M
+    entry: PolicyEntry, n: int, scheme: str, seed: int = 0, noise_m: float = EVAL_NOISE_M, model: Any = "standard"
 ) -> dict[str, float]:
-    """RMS tracking error [m] of a bank of n on independent references
+    """RMS tracking error [m] of a bank of n actuators ``model`` on independent references
     (:func:`bank_tracking_references`), over all its actuators and :data:`BANK_TRACKING_SECONDS`,
-    on the true positions; the bank's total electrical energy [J]."""
+    on the true positions; the bank's total electrical energy [J]. Raises :class:`EpisodeEnded`
+    when the bank overheats."""
     import gymnasium as gym
 
     import sma_gym  # noqa: F401  (registers the ids)
 
-    kwargs = {**entry.env_kwargs, "n_actuators": n, "scheme": scheme, "position_noise_std_m": noise_m}
+    kwargs = {**entry.env_kwargs, "n_actuators": n, "scheme": scheme, "position_noise_std_m": noise_m, "model": model}
     env = gym.make("sma_gym:" + entry.env_id, max_episode_steps=None, **kwargs).unwrapped
     policy = entry.make(env)
     if hasattr(policy, "reset"):
@@ -838,8 +901,9 @@ def bank_tracking(
         action, _ = policy.predict(obs, episode_start=np.array([k == 0]), deterministic=True)
         obs, _, terminated, _, info = env.step(action)
         if terminated:
-            raise RuntimeError(
-                f"{entry.name}: the bank-tracking episode ended early (overheated?) at t = {info['time_s']} s"
+            env.close()
+            raise EpisodeEnded(
+                {entry.name: float(info["time_s"])}, float(np.max(env.sim.temperature_c)), "bank tracking"
             )
         squared += float(np.mean((info["reference_m"] - env.sim.position_m) ** 2))
     energy = float(np.sum(env.sim.electrical_energy_j))
@@ -858,8 +922,10 @@ def bank_baselines(scheme: str, quick: bool = False) -> list[PolicyEntry]:
     return entries
 
 
-def bank_tracking_label(n: int, scheme: str) -> str:
-    return f"{n} actuators, {scheme.replace('_', ' ')}"
+def bank_tracking_label(n: int, scheme: str, model: Any = "standard") -> str:
+    """The condition bank tracking is recorded under; names the model unless it is the standard one."""
+    label = f"{n} actuators, {scheme.replace('_', ' ')}"
+    return label if _is_standard(model) else f"{label}, model {_model_label(model)}"
 
 
 def run_bank_tracking(
@@ -868,15 +934,26 @@ def run_bank_tracking(
     n: int,
     scheme: str,
     seeds: Sequence[int] = DEFAULT_SEEDS,
+    model: Any = "standard",
 ) -> None:
-    """Bank tracking on independent references (issue 16) for bank baselines and agents, over
-    ``seeds``; records under experiment ``"9 bank tracking"``, reference ``"independent"``."""
+    """Bank tracking on independent references (issue 16) for bank baselines and agents on
+    ``model``, over ``seeds``; records under experiment ``"9 bank tracking"``, reference
+    ``"independent"`` (an entry whose bank overheats: :data:`ENDED_EARLY`)."""
+    label = bank_tracking_label(n, scheme, model)
     for entry in entries:
-        runs = [bank_tracking(entry, n, scheme, seed=int(seed)) for seed in seeds]
+        try:
+            runs = [bank_tracking(entry, n, scheme, seed=int(seed), model=model) for seed in seeds]
+        except EpisodeEnded as ended:
+            results.records += _records(
+                "9 bank tracking",
+                entry.name,
+                label,
+                "independent",
+                {ENDED_EARLY: np.array(list(ended.ended_s.values()))},
+            )
+            continue
         metrics = {key: np.array([run[key] for run in runs]) for key in runs[0]}
-        results.records += _records(
-            "9 bank tracking", entry.name, bank_tracking_label(n, scheme), "independent", metrics
-        )
+        results.records += _records("9 bank tracking", entry.name, label, "independent", metrics)
 
 
 def bank_agent_entry(agent: AgentPolicy) -> PolicyEntry:
@@ -935,13 +1012,16 @@ def evaluate(
     def scored_in(experiment: str, env_id: str) -> bool:
         return experiment in AGENT_EXPERIMENTS.get(env_id, ())
 
-    agent_entries = [agent_entry(a) for a in agents if not scored_in("9", a.env_id)]
-    bank_agents = [bank_agent_entry(a) for a in agents if scored_in("9", a.env_id)]
-    tracking_agents = [a for a in agent_entries if scored_in("6.1", a.env_id)]
-    sensing_agents = [a for a in agent_entries if scored_in("self-sensing", a.env_id)]
+    tracking = [a for a in agents if scored_in("6.1", a.env_id)]
+    sensing = [a for a in agents if scored_in("self-sensing", a.env_id)]
+    bank_agents = [a for a in agents if scored_in("9", a.env_id)]
+    # The report's conditions are its actuator's: an agent trained on another model is
+    # scored on that model (Table 6.1 beside the baselines there), not on the report's.
+    tracking_agents = [agent_entry(a) for a in tracking if _is_standard(trained_model(a))]
     base = list(baselines) if baselines is not None else default_entries()
     if "6.1" in experiments:
-        run_table_6_1(base + tracking_agents, results, seeds)
+        for model, group in _by_model(tracking):
+            run_table_6_1(base + [agent_entry(a) for a in group], results, seeds, model=model)
     if "7" in experiments:
         chosen = [e for e in base if e.name in {s.label for s in CHAPTER_7_SPECS}] if baselines is None else base
         run_chapter_7(chosen + tracking_agents, results, seeds, CHAPTER_7_CONDITIONS[1:])
@@ -958,17 +1038,48 @@ def evaluate(
         run_chapter_9(chosen + ([banks[1]] if baselines is None else []), results, seeds=seeds)
         run_bank_step(banks, results, seeds)
         for agent in bank_agents:
-            # Each bank agent beside the bank baselines of its own scheme, at the n it trained with.
+            # Each bank agent beside the bank baselines of its own scheme, at the n and on the
+            # model it trained with.
             scheme = agent.env_kwargs.get("scheme", "fixed_slots")
-            n = int(next(a for a in agents if a.name == agent.name).env_kwargs.get("n_actuators", 4))
+            n = int(agent.env_kwargs.get("n_actuators", 4))
             pool = bank_baselines(scheme)
-            run_bank_tracking(pool + [agent], results, n, scheme, seeds)
+            run_bank_tracking(pool + [bank_agent_entry(agent)], results, n, scheme, seeds, model=trained_model(agent))
     if "self-sensing" in experiments:
         # The report's self-sensing setup (§4.2): a fan; compared with the same controllers
         # reading the position sensor under the same conditions.
-        sensing = [baseline(PID, True), baseline(with_feedforward(VSC3), True)]
         with_sensor = [e for e in base if e.name in ("PID", "VSC3 + FF")]
-        run_table_6_1(
-            sensing + sensing_agents + with_sensor, results, seeds, condition="self-sensing", model="forced-convection"
-        )
+        for model, group in _by_model(sensing, default=SELF_SENSING_MODEL):
+            readers = [baseline(PID, True), baseline(with_feedforward(VSC3), True)]
+            condition = "self-sensing" if model == SELF_SENSING_MODEL else f"self-sensing, {table_6_1_condition(model)}"
+            entries = readers + [agent_entry(a) for a in group] + with_sensor
+            run_table_6_1(entries, results, seeds, condition=condition, model=model)
     return results
+
+
+SELF_SENSING_MODEL = "forced-convection"
+"""The model of the report's self-sensing experiments (§4.2, with a fan): the self-sensing env's default."""
+
+
+def trained_model(agent: AgentPolicy) -> Any:
+    """The model an agent trained on, as its card gives it (a name, a path or a configuration);
+    ``"standard"`` (:data:`SELF_SENSING_MODEL` for the self-sensing env) when the card gives none."""
+    model = agent.env_kwargs.get("model")
+    if model is None:
+        return SELF_SENSING_MODEL if agent.env_id == "SMASelfSensing-v0" else "standard"
+    return model
+
+
+def _by_model(agents: Sequence[AgentPolicy], default: Any = "standard") -> list[tuple[Any, list[AgentPolicy]]]:
+    """``agents`` grouped by the model they trained on, ``default``'s group first (always there,
+    for the baselines), in order; equal configurations given as dicts share a group."""
+    groups: dict[str, tuple[Any, list[AgentPolicy]]] = {_model_key(default): (default, [])}
+    for a in agents:
+        model = trained_model(a)
+        groups.setdefault(_model_key(model), (model, []))[1].append(a)
+    return list(groups.values())
+
+
+def _model_key(model: Any) -> str:
+    if isinstance(model, (str, os.PathLike)):
+        return os.fspath(model)
+    return json.dumps(load_model(model).to_dict(), sort_keys=True)

@@ -11,7 +11,7 @@ from sma_gym.electrical.multiplexer import io_counts
 from sma_gym.plotting import new_figure, save
 from sma_gym.provenance import describe, provenance
 from sma_gym_agents.controllers import ALL_SPECS
-from sma_gym_agents.evaluation import CHAPTER_8_CASES, TABLE_6_1, Results
+from sma_gym_agents.evaluation import CHAPTER_8_CASES, ENDED_EARLY, TABLE_6_1, Results
 
 
 def _mm(value: float, signed: bool = True) -> str:
@@ -62,10 +62,11 @@ def table_6_1_markdown(results: Results, condition: str | None = None) -> str:
                     ("step", "steady_state_error_m"),
                     ("sine", "max_error_heating_m"),
                     ("sine", "max_error_cooling_m"),
+                    ("sine", "energy_j"),
                 )
             }
         except KeyError:
-            continue
+            continue  # not run under this condition, or ended early (listed below the table)
         rep = TABLE_6_1.get(p) if condition == "standard" else None
 
         def pair(key: str, idx: int, signed: bool = True, v: dict = v, rep: tuple | None = rep) -> str:
@@ -83,7 +84,28 @@ def table_6_1_markdown(results: Results, condition: str | None = None) -> str:
             f"{results.value('6.1', p, condition, 'sine', 'energy_j'):.2f} | "
             f"{_mm(results.value('6.1', p, condition, 'sine', 'rms_error_m', worst=True), False)} |"
         )
-    return "\n".join(lines)
+    return "\n".join(lines + ended_early_lines(results, "6.1", condition))
+
+
+def ended_early_lines(results: Results, experiment: str, condition: str) -> list[str]:
+    """A note naming each policy whose episode overheated under ``condition`` (that run has no
+    other metrics), and when; empty when none did."""
+    ended = [
+        f"{r.policy} ({r.reference}, at {r.value:.3f} s)"
+        for r in results.records
+        if (r.experiment, r.condition, r.metric) == (experiment, condition, ENDED_EARLY)
+    ]
+    if not ended:
+        return []
+    return ["", f"Ended early, the wire overheated (the env's overheat limit): {', '.join(ended)}."]
+
+
+def _ended_cell(results: Results, experiment: str, policy: str, condition: str, reference: str) -> str:
+    """A table cell for a run with no metrics: when it overheated, else empty (not run)."""
+    try:
+        return f"overheated at {results.value(experiment, policy, condition, reference, ENDED_EARLY):.3f} s"
+    except KeyError:
+        return ""
 
 
 def chapter_7_markdown(results: Results) -> str:
@@ -107,7 +129,7 @@ def chapter_7_markdown(results: Results) -> str:
                         cell += f" ({_mm(results.value('7', p, c, ref, metric, worst=True), False)})"
                     cells.append(cell)
                 except KeyError:
-                    cells.append("")
+                    cells.append(_ended_cell(results, "7", p, c, ref))
             lines.append(f"| {p} | " + " | ".join(cells) + " |")
         lines.append("")
     return "\n".join(lines)
@@ -128,7 +150,7 @@ def chapter_8_markdown(results: Results) -> str:
                 value = results.value("8", p, label, "1 -> 7 mm", "efficiency_percent")
                 cells.append("not reached" if math.isnan(value) else f"{value:.3f}")
             except KeyError:
-                cells.append("")
+                cells.append(_ended_cell(results, "8", p, label, "1 -> 7 mm"))
         lines.append(f"| {label} | {report:.2f} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -188,7 +210,9 @@ def bank_markdown(results: Results) -> str:
                 f"| {r.policy} | {r.condition} | {rise} | {half} | {cell('9 bank', r, 'holders_max_error_m')} |"
             )
         lines.append("")
-    tracking = [r for r in results.records if r.experiment == "9 bank tracking" and r.metric == "rms_error_m"]
+    tracking = [
+        r for r in results.records if r.experiment == "9 bank tracking" and r.metric in ("rms_error_m", ENDED_EARLY)
+    ]
     if tracking:
         lines += [
             "### The bank on independent references (RMS tracking error, mean over seeds, worst in parentheses)",
@@ -197,6 +221,9 @@ def bank_markdown(results: Results) -> str:
             "|---|---|---|---|",
         ]
         for r in tracking:
+            if r.metric == ENDED_EARLY:
+                lines.append(f"| {r.policy} | {r.condition} | overheated at {r.value:.3f} s | |")
+                continue
             energy = results.value("9 bank tracking", r.policy, r.condition, r.reference, "energy_j")
             lines.append(f"| {r.policy} | {r.condition} | {cell('9 bank tracking', r, 'rms_error_m')} | {energy:.1f} |")
     return "\n".join(lines).rstrip()

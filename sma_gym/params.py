@@ -656,11 +656,36 @@ class ActuatorParams:
         return self.mechanism.spring_preload_n / self.wire.area_m2
 
     @property
+    def loaded_reach_m(self) -> float:
+        """x_A [m]: how far the loaded wire contracts once fully austenitic, at the temperature
+        its heating branch finishes under the spring's largest load.
+
+        The mechanics' static balance with xi = 0 (docs/model.md §2), k x = A D_A (eps0 - x / l0
+        - alpha_A (T - T_amb)), gives x_A = l0 (eps0 - alpha_A (T - T_amb)) / (1 + k l0 / (A D_A)),
+        with T = A_f + sigma / C_A at sigma = (F_pre + k eps0 l0) / A. The spring stretches the
+        austenite and the hot wire expands, so x_A < eps0 l0: 10.51 mm of the report's wire's
+        10.92 (beyond its 9.5 mm cut; the simulator holds 10.45 mm at 135 degC); a 0.25 mm,
+        0.2 m wire at 12 V on a 600 N/m spring 7.55 of its 8.0 mm (held: at most 7.4 mm, at
+        194 degC); the real bench of ``../shared/data/real`` (twin ``bench-0.5mm-ht``)
+        17.08 of 17.88 mm, where its runs reach 16.6-16.8 mm. Hotter, the wire expands and
+        holds less (6.8 mm at duty 1, 476 degC).
+        """
+        w, m = self.wire, self.mechanism
+        sigma_pa = (m.spring_preload_n + m.spring_stiffness_n_m * w.max_stroke_m) / w.area_m2
+        hot_c = w.austenite_finish_c + sigma_pa / w.stress_coefficient_austenite_pa_k
+        strain = w.max_transformation_strain - w.thermal_expansion_austenite_1_k * (
+            hot_c - self.convection.ambient_temperature_c
+        )
+        stretch = m.spring_stiffness_n_m * w.length_m / (w.area_m2 * w.youngs_modulus_austenite_pa)
+        return max(0.0, w.length_m * strain / (1.0 + stretch))
+
+    @property
     def usable_stroke_m(self) -> float:
         """The stroke a controller can use [m]: the driver's end-of-travel position or the
-        wire's eps0 * l0, whichever is shorter (a short wire never reaches the standard cut's
-        9.5 mm). The envs scale positions and draw references by it."""
-        return min(self.driver.end_of_travel_m, self.wire.max_stroke_m)
+        loaded wire's reach (:attr:`loaded_reach_m`), whichever is shorter (a short wire or a
+        stiff spring never reaches the standard cut's 9.5 mm). The envs scale positions and
+        draw references by it."""
+        return min(self.driver.end_of_travel_m, self.loaded_reach_m)
 
     @property
     def full_power_heating_rate_k_s(self) -> float:

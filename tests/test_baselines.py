@@ -435,3 +435,67 @@ def test_a_loaded_frame_stacked_agent_stacks_raw_observations_as_vec_frame_stack
     bank = dataclasses.replace(agent, env_id="SMAMultiplexed-v0")
     with pytest.raises(ValueError, match=r"BankAgent\.from_policy"):
         bank.predict(np.zeros(10))
+
+
+class _Constant:
+    """A policy that always commands one duty (action 2 duty - 1 on the tracking env)."""
+
+    def __init__(self, duty: float):
+        self.duty = duty
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        n = np.asarray(observation).shape[0]
+        return np.full((n, 1), 2.0 * self.duty - 1.0, dtype=np.float32), None
+
+
+def test_a_policy_that_overheats_the_wire_costs_only_itself_and_is_named_with_when():
+    """One controller that drove a user's actuator past the overheat limit aborted the whole
+    Table 6.1 (all ten controllers lost, RuntimeError with every env's time). It is now
+    recorded as ended early, at its own time, and the others are scored."""
+    from sma_gym_agents.evaluation import ENDED_EARLY, PolicyEntry, run_table_6_1
+    from sma_gym_agents.report import table_6_1_markdown
+
+    kwargs = {"control_period_s": 1e-2, "overheat_limit_c": 60.0}
+    entries = [
+        PolicyEntry(name, lambda env, d=d: _Constant(d), env_kwargs=kwargs) for name, d in (("off", 0.0), ("full", 1.0))
+    ]
+    results = Results()
+    run_table_6_1(entries, results, seeds=(0,), sine_seconds=12.0)
+    assert results.value("6.1", "off", "standard", "step", "overshoot_m") == 0.0
+    for reference in ("step", "sine"):
+        ended = results.value("6.1", "full", "standard", reference, ENDED_EARLY)
+        assert 0.0 < ended < 1.0
+        with pytest.raises(KeyError):
+            results.value("6.1", "full", "standard", reference, "rms_error_m")
+    table = table_6_1_markdown(results)
+    assert "| off |" in table and "| full |" not in table
+    assert "Ended early, the wire overheated (the env's overheat limit): full (step, at" in table
+
+
+def test_an_agent_trained_on_another_actuator_is_scored_on_it_beside_the_baselines_there(tmp_path):
+    """An agent trained on a user's own actuator was scored on the report's standard wire and
+    labelled "standard" (the card's model was dropped): it is now scored on its own model,
+    the baselines beside it there, and the card holds that model's configuration (given in
+    Python as ActuatorParams, which the card could not write before)."""
+    from stable_baselines3 import PPO
+
+    from sma_gym_agents import PolicyCard, load_policy
+    from sma_gym_agents.evaluation import baseline, evaluate
+
+    mine = preset("wire-0.2mm").with_changes(**{"driver.supply_voltage_v": 7.0}, name="mine-0.2mm-7v")
+    env = gym.make("sma_gym:SMATracking-v0", model=mine)
+    path = tmp_path / "agent.zip"
+    PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu").save(path)
+    PolicyCard(algo="PPO", env_id="SMATracking-v0", name="mine", env_kwargs={"model": mine}).save(path)
+    card = json.loads(path.with_suffix(".json").read_text())
+    assert card["env_kwargs"]["model"]["actuator"]["driver"]["supply_voltage_v"] == 7.0
+    agent = load_policy(path)
+    results = evaluate([agent], ["6.1"], seeds=(0,), baselines=[baseline(PID)])
+    assert results.distinct("6.1", "condition") == ["standard", "model mine-0.2mm-7v"]
+    assert {r.condition for r in results.records if r.policy == "mine"} == {"model mine-0.2mm-7v"}
+    trace = results.traces[("6.1", "mine", "model mine-0.2mm-7v", "sine")]
+    pid = results.traces[("6.1", "PID", "model mine-0.2mm-7v", "sine")]
+    # Both ran on the 0.2 mm wire at 7 V (at most V^2 / R of that wire), not the standard one (26.7 W).
+    full_power_w = 7.0**2 / preset("wire-0.2mm").wire.cold_resistance_ohm
+    assert 0.8 * full_power_w < np.max(pid["power_w"]) < 1.2 * full_power_w < 10.0
+    assert np.max(trace["power_w"]) < 1.2 * full_power_w

@@ -14,6 +14,7 @@ import sma_gym
 from sma_gym import ModelConfig, preset
 from sma_gym.envs.sb3 import SB3VecEnv
 from sma_gym.envs.task import FEATURES, OBS_POSITION, OBS_SELF_SENSING
+from sma_gym.simulator import Simulator
 
 IDS = sma_gym.ENV_IDS
 SINGLE_ACTUATOR_IDS = ("SMATracking-v0", "SMASelfSensing-v0", "SMARobust-v0")
@@ -582,17 +583,40 @@ def test_scales_are_the_parameters_definitions():
         p = env.settings.model.actuator
         assert env.position_scale_m == p.usable_stroke_m
         assert env.resistance_scale_ohm == p.wire.cold_resistance_ohm
-    assert no_cut.actuator.usable_stroke_m == no_cut.actuator.wire.max_stroke_m
+    assert no_cut.actuator.usable_stroke_m == no_cut.actuator.loaded_reach_m
     venv = gym.make_vec("sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="vector_entry_point", model=no_cut)
-    assert venv.unwrapped.position_scale_m.tolist() == [no_cut.actuator.wire.max_stroke_m] * 2
+    assert venv.unwrapped.position_scale_m.tolist() == [no_cut.actuator.loaded_reach_m] * 2
+
+
+def test_the_loaded_reach_is_where_the_simulated_wire_goes_and_no_duty_goes_further():
+    """The usable stroke of a wire without a cut is its loaded reach (the spring stretches the
+    austenite, the hot wire expands), not eps0 l0: on a 0.25 mm, 0.2 m wire on a 600 N/m spring
+    at 12 V, eps0 l0 = 8 mm but no duty holds more than 7.4 mm (a user's report's 8 mm step
+    drove it to overheat). Checked against the simulator, which the formula does not call."""
+    mine = preset("standard").with_changes(
+        **{
+            "wire.diameter_m": 0.25e-3,
+            "wire.length_m": 0.2,
+            "driver.supply_voltage_v": 12.0,
+            "mechanism.spring_stiffness_n_m": 600.0,
+            "driver.end_of_travel_m": float("inf"),
+        }
+    )
+    for p in (mine, preset("standard").with_changes(**{"driver.end_of_travel_m": float("inf")})):
+        duties = np.array([0.06, 0.1, 0.2, 0.5, 1.0])
+        sim = Simulator([ModelConfig(p)] * len(duties), control_period_s=1e-3)
+        held = sim.run(np.tile(duties, (15000, 1)), record=("position_m",))["position_m"][-1]
+        assert held.max() <= p.loaded_reach_m < p.wire.max_stroke_m
+        assert held.max() > p.loaded_reach_m - 0.25e-3  # the fully transformed wire, just past A_f
+        assert p.usable_stroke_m == p.loaded_reach_m
 
 
 def test_a_wire_shorter_than_the_cut_scales_and_draws_within_its_own_stroke():
-    """A 0.15 m wire contracts at most eps0 l0 = 6 mm, short of the standard cut's 9.5 mm:
-    the usable stroke is the shorter of the two (it was the cut's), so every drawn reference
+    """A 0.15 m wire contracts at most its loaded reach, 5.8 mm (eps0 l0 = 6 mm), short of the
+    standard cut's 9.5 mm: the usable stroke is the shorter of the two (it was the cut's), so every drawn reference
     stays where the wire can go instead of driving it to overheat."""
     short = preset("standard").with_changes(**{"wire.length_m": 0.15})
-    assert short.wire.max_stroke_m == pytest.approx(6e-3) and short.usable_stroke_m == short.wire.max_stroke_m
+    assert short.wire.max_stroke_m == pytest.approx(6e-3) and short.usable_stroke_m == short.loaded_reach_m < 6e-3
     env = make("SMATracking-v0", model=ModelConfig(short)).unwrapped
     assert env.position_scale_m == short.usable_stroke_m
     for seed in range(40):
@@ -603,7 +627,7 @@ def test_a_wire_shorter_than_the_cut_scales_and_draws_within_its_own_stroke():
         assert max(levels) <= short.usable_stroke_m, ref
     # The report's step is a fixed 8 mm: refused by name rather than run into an overheat.
     with pytest.raises(
-        ValueError, match=r"reference 'report-step' its top level = 0.008: expected a position in \[0, 0.006\]"
+        ValueError, match=r"reference 'report-step' its top level = 0.008: expected a position in \[0, 0.0058"
     ):
         env.reset(seed=0, options={"reference": "report-step"})
 

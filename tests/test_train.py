@@ -228,3 +228,24 @@ def test_goal_lines_print_enough_places_to_tell_the_figures_apart():
     assert _places_that_tell_apart([0.8, 1.2]) == 3
     assert _places_that_tell_apart([0.5, 0.5]) == 3  # equal figures are not spread out
     assert _places_that_tell_apart([1.0, 1.0 + 1e-9]) == 6  # at most six
+
+
+def test_validation_references_lie_within_the_stroke_of_the_runs_own_actuator(tmp_path):
+    """They were drawn within the standard wire's 9.5 mm whatever the model, so training on a
+    shorter wire stopped at once ("levels_m[5] = 0.0081: expected a position in [0, 0.008]")."""
+    from sma_gym import ModelConfig, preset
+    from sma_gym_agents.training.envs import validation_references
+
+    def highest(run: RunConfig) -> float:
+        levels = []
+        for ref in validation_references(run, 8):
+            levels += [v for k, v in ref.items() if k.startswith("level") and isinstance(v, float)]
+            levels += list(ref.get("levels_m", []))
+            levels += [ref["offset_m"] + ref["amplitude_m"]] if "offset_m" in ref else []
+        return max(levels)
+
+    short = preset("standard").with_changes(**{"wire.length_m": 0.2}, name="short")
+    ModelConfig(short).save(tmp_path / "short.json")
+    run = RunConfig.from_args(parse_args(["--quick", "--env-kwargs", f"model:{tmp_path / 'short.json'}"]))
+    assert short.usable_stroke_m < highest(RunConfig.from_args(parse_args(["--quick"])))
+    assert 0.8 * short.usable_stroke_m < highest(run) <= short.usable_stroke_m

@@ -18,6 +18,7 @@ from sma_gym_agents.controllers import ALL_SPECS, PID, VSC3, with_feedforward
 from sma_gym_agents.evaluation import (
     BANK_PRIORITY_SPEC,
     CHAPTER_7_CONDITIONS,
+    SELF_SENSING_MODEL,
     PolicyEntry,
     Results,
     agent_entry,
@@ -28,6 +29,8 @@ from sma_gym_agents.evaluation import (
     run_bank_tracking,
     run_chapter_7,
     run_table_6_1,
+    table_6_1_condition,
+    trained_model,
 )
 from sma_gym_agents.report import write_report
 from sma_gym_agents.trained import load_policy
@@ -155,20 +158,23 @@ def compare(run: RunConfig, out: Path) -> tuple[str, dict[str, Any]]:
     if run.env_id == BANK:
         scheme = str(run.env_kwargs.get("scheme", "fixed_slots"))
         n = int(run.env_kwargs.get("n_actuators", 4))
+        model = trained_model(agent)
         entries = bank_baselines(scheme, run.quick) + [bank_agent_entry(agent)]
-        run_bank_tracking(entries, results, n, scheme, seeds)
+        run_bank_tracking(entries, results, n, scheme, seeds, model=model)
         write_report(results, out / "evaluation")
-        return summarise(run, results, agent.name, [(bank_tracking_label(n, scheme), "")])
+        return summarise(run, results, agent.name, [(bank_tracking_label(n, scheme, model), "")])
     entries = _baselines(run.env_id, run.quick) + [agent_entry(agent)]
-    if run.env_id == SELF_SENSING:
-        run_table_6_1(entries, results, seeds, condition="self-sensing", model="forced-convection")
-        conditions = [("self-sensing", "forced-convection")]
-    elif run.env_id == ROBUST:
+    if run.env_id == ROBUST:
         conditions = list(CHAPTER_7_CONDITIONS) if not run.quick else [CHAPTER_7_CONDITIONS[0]]
         run_chapter_7(entries, results, seeds, conditions)
     else:
-        run_table_6_1(entries, results, seeds)
-        conditions = [("standard", "standard")]
+        # Scored on the actuator it trained on (the report's numbers only beside the report's).
+        model = trained_model(agent)
+        condition = table_6_1_condition(model)
+        if run.env_id == SELF_SENSING:
+            condition = "self-sensing" if model == SELF_SENSING_MODEL else f"self-sensing, {condition}"
+        run_table_6_1(entries, results, seeds, condition=condition, model=model)
+        conditions = [(condition, "")]
     write_report(results, out / "evaluation")
     return summarise(run, results, agent.name, conditions)
 

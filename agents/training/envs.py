@@ -27,7 +27,6 @@ import sma_gym  # noqa: F401  (registers the ids)
 from sma_gym.envs import references as refs
 from sma_gym.envs.multiplexed import DEFAULT_N_ACTUATORS
 from sma_gym.envs.sb3 import SB3VecEnv
-from sma_gym.params import preset
 from sma_gym_agents.bank import BankResidual, BankView
 from sma_gym_agents.history import HistoryFeatures
 from sma_gym_agents.policies import env_attr
@@ -310,9 +309,12 @@ def make_training_env(run: RunConfig) -> VecEnv:
     )
 
 
-def validation_references(count: int = 8) -> list[dict[str, Any]]:
-    """Held-out references: the training distribution, drawn with seeds training never uses."""
-    stroke_m = preset("standard").usable_stroke_m
+def validation_references(run: RunConfig, count: int = 8) -> list[dict[str, Any]]:
+    """Held-out references: the training distribution, drawn with seeds training never uses,
+    within the stroke of the run's own actuator (the env's position scale, as training draws)."""
+    env = gym.make("sma_gym:" + run.env_id, **run.env_kwargs)
+    stroke_m = float(env.unwrapped.position_scale_m)
+    env.close()
     out = []
     for k in range(count):
         rng = np.random.default_rng(VALIDATION_SEED + k)

@@ -119,7 +119,7 @@ def train(run: RunConfig, out: Path, progress: bool = True) -> TrainingInfo:
     torch.set_num_threads(run.threads)
     torch.manual_seed(run.seed)
     venv = make_training_env(run)
-    references = validation_references(validation_count(run))
+    references = validation_references(run, validation_count(run))
     eval_env = make_validation_env(run, references)
     model = make_model(run, venv, out)
     per_env = max(1, run.eval_freq // venv.num_envs)
