@@ -25,6 +25,9 @@ def require_finite(name: str, value: Any, unit: str = "") -> float:
     config value read without parsing) is a mistake to report, not to guess at."""
     if isinstance(value, (str, bytes)):
         raise ValueError(f"{name} = {_fmt(value)}: expected a finite number{_unit(unit)}, not a string")
+    if isinstance(value, (bool, np.bool_)):
+        # float(True) is 1.0: a flag passed where a quantity belongs would run as 1 V, 1 m, ...
+        raise ValueError(f"{name} = {_fmt(value)}: expected a finite number{_unit(unit)}, not a boolean")
     try:
         number = float(value)
     except (TypeError, ValueError):
@@ -78,7 +81,13 @@ def require_range(
     try:
         number = require_finite(name, value, unit)
     except ValueError:
-        text = ", not a string" if isinstance(value, (str, bytes)) else ""
+        text = (
+            ", not a string"
+            if isinstance(value, (str, bytes))
+            else ", not a boolean"
+            if isinstance(value, (bool, np.bool_))
+            else ""
+        )
         raise ValueError(f"{name} = {_fmt(value)}: {expected}{text}") from None
     below = number <= lower if lower_open else number < lower
     above = number >= upper if upper_open else number > upper

@@ -624,6 +624,12 @@ class ActuatorParams:
 
     def validate(self) -> None:
         """Check every field; raise ``ValueError`` naming the first bad one."""
+        for key in ("name", "description"):
+            # Saved files, reports and messages carry both; a model file refuses anything else.
+            if not isinstance(getattr(self, key), str) or (key == "name" and not self.name):
+                raise ValueError(
+                    f"ActuatorParams.{key} = {getattr(self, key)!r}: expected a {'non-empty ' * (key == 'name')}string"
+                )
         for part, cls in (
             ("wire", Wire),
             ("mechanism", Mechanism),
@@ -649,7 +655,23 @@ class ActuatorParams:
                 f"Wire.diameter_m = {self.wire.diameter_m!r} wire; expected at most 2e9 Pa (NiTi breaks at 1-1.5 GPa)"
             )
 
+        # A wire whose surroundings are past its transformation never rests cold and extended
+        # (a superelastic wire, or ambient set above A_s): every reset would start it moving.
+        if self.convection.ambient_temperature_c >= self.highest_rest_temperature_c:
+            raise ValueError(
+                f"Convection.ambient_temperature_c = {self.convection.ambient_temperature_c!r}: expected a value "
+                f"below the wire's stress-shifted austenite start A_s + sigma0 / C_A = "
+                f"{self.highest_rest_temperature_c:.1f} degC (Wire.austenite_start_c = {self.wire.austenite_start_c!r}), "
+                "where it rests cold and extended"
+            )
+
     # Convenience -----------------------------------------------------------------------
+    @property
+    def highest_rest_temperature_c(self) -> float:
+        """A_s + sigma0 / C_A [degC]: the heating branch's start at the rest stress, above which
+        the wire cannot rest fully martensitic (the surroundings must be colder)."""
+        return self.wire.austenite_start_c + self.rest_stress_pa / self.wire.stress_coefficient_austenite_pa_k
+
     @property
     def rest_stress_pa(self) -> float:
         """sigma0 = F_pre / A [Pa]: wire stress at rest (x = 0)."""

@@ -190,3 +190,39 @@ def test_the_calibration_command_answers_help_and_refuses_an_unknown_target_with
     with pytest.raises(SystemExit) as stop:
         calibration.main(argv)
     assert stop.value.code == (0 if argv == ["--help"] else 2)
+
+
+def test_surroundings_past_the_wires_transformation_are_refused_by_name():
+    """Ambient 150 degC, or a superelastic wire (A_s = 0 degC) at 20 degC, was accepted: the
+    wire moved with no power (2.5 mm after one step, then past its stroke) while the env
+    reported it at rest. Both are refused, naming the field and the wire's rest limit."""
+    p = preset("standard")
+    limit = p.highest_rest_temperature_c
+    assert limit == pytest.approx(
+        p.wire.austenite_start_c + p.rest_stress_pa / p.wire.stress_coefficient_austenite_pa_k
+    )
+    with pytest.raises(
+        ValueError, match=r"Convection.ambient_temperature_c = 150.0: expected a value below .* 77.7 degC"
+    ):
+        p.with_changes(**{"convection.ambient_temperature_c": 150.0})
+    superelastic = {
+        "wire.austenite_start_c": 0.0,
+        "wire.austenite_finish_c": 10.0,
+        "wire.martensite_start_c": -5.0,
+        "wire.martensite_finish_c": -15.0,
+    }
+    with pytest.raises(ValueError, match=r"ambient_temperature_c = 20.0: .*Wire.austenite_start_c = 0.0"):
+        p.with_changes(**superelastic)
+    assert p.with_changes(**{"convection.ambient_temperature_c": limit - 1.0}).convection.ambient_temperature_c < limit
+
+
+def test_a_boolean_quantity_and_a_name_that_is_not_text_are_refused_where_they_are_given():
+    """with_changes took True as a 1 V supply, and name=3 was saved into a file that load then
+    refused: both are refused at once (a model file refused them already)."""
+    p = preset("standard")
+    with pytest.raises(ValueError, match=r"Driver.supply_voltage_v = True: .*not a boolean"):
+        p.with_changes(**{"driver.supply_voltage_v": True})
+    with pytest.raises(ValueError, match=r"ActuatorParams.name = 3: expected a non-empty string"):
+        p.with_changes(name=3)
+    with pytest.raises(ValueError, match=r"ActuatorParams.description = None: expected a string"):
+        p.with_changes(description=None)
