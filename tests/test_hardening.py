@@ -14,6 +14,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -1568,3 +1569,53 @@ def test_an_interrupt_while_a_diagnosis_writes_leaves_the_earlier_set_whole(tmp_
         report.write_outputs(None, out, [], [], None)
     assert {p.name: p.read_text() for p in out.iterdir()} == earlier  # no staging folder left either
     assert [p.name for p in report.previous_outputs(out)] == ["diagnosis.json", "diagnosis.md", "fit_0_a.png"]
+
+
+def test_vector_seeds_indices_and_reference_fields_of_the_wrong_kind_are_refused_by_name():
+    """From an RL user's trial: seed=1.5 gave "'float' object is not iterable", seed="0" was
+    read as a list, reset_envs([5]) an IndexError ([-1] reset the last env), a reference
+    level given as text ran as a number and True as 1.0 (named so), max_episode_steps=-5 was
+    "expected [1, ...]" without -1 or None, and autoreset_mode in the sync mode was an
+    unknown kwarg without a way on."""
+    v = gym.make_vec("sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    for seed in (1.5, "0", [0], [0, -1], True):
+        with pytest.raises(ValueError, match=r"seed = .*: expected None, an integer >= 0 or a list of 2"):
+            v.reset(seed=seed)
+    v.reset(seed=[3, None])
+    for indices in ([5], [-1], [1.5], [True]):
+        with pytest.raises(
+            ValueError, match=r"reset_envs indices = .*: expected sub-env indices, integers in \[0, 1\]"
+        ):
+            v.unwrapped.reset_envs(indices)
+    for reference, message in (
+        ({"kind": "step", "level1_m": "0.004"}, r"level1_m = '0.004': expected a number, not a string"),
+        ({"kind": "step", "level1_m": True}, r"level1_m = True: expected a number, not a boolean"),
+        ({"kind": "random", "times_s": ["0", "1"], "levels_m": [1e-3, 2e-3]}, r"times_s\[0\] = '0': .*string"),
+        ({"kind": "random", "times_s": "01", "levels_m": [1e-3, 2e-3]}, r"times_s = '01': expected a list"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            gym.make("sma_gym:SMATracking-v0", reference=reference)
+    with pytest.raises(ValueError, match=r"max_episode_steps = -5: expected an integer >= 1, -1 \(never truncate\)"):
+        gym.make_vec(
+            "sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="vector_entry_point", max_episode_steps=-5
+        )
+    with pytest.raises(ValueError, match=r"vector_kwargs=\{'autoreset_mode'"):
+        gym.make_vec("sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="sync", autoreset_mode="SameStep")
+    bank = gym.make_vec("sma_gym:SMAMultiplexed-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    bank.reset(seed=7)
+    assert bank.unwrapped.np_random_seed == 7  # as the single-actuator vector env
+
+
+def test_a_vector_infos_masks_are_its_own_so_editing_one_changes_no_later_reset():
+    """Every mask of every info was one array, the default mask of reset(): a user's code that
+    set one entry False made the next reset() skip that sub-env."""
+    v = gym.make_vec("sma_gym:SMATracking-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    v.reset(seed=0)
+    for _ in range(5):
+        _, _, _, _, info = v.step(np.ones((3, 1), dtype=np.float32))
+    masks = [value for key, value in info.items() if key.startswith("_")]
+    assert len({id(m) for m in masks}) == len(masks) > 1
+    info["_time_s"][1] = False
+    _, _, _, _, later = v.step(np.ones((3, 1), dtype=np.float32))
+    assert later["_time_s"].all()
+    assert v.reset()[1]["time_s"].tolist() == [0.0, 0.0, 0.0]

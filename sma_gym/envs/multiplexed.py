@@ -392,6 +392,10 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
         mask, seeds, options = reset_arguments(seed, options, self.num_envs)
         if mask is None:
             mask = np.ones(self.num_envs, dtype=bool)
+        first = int(np.flatnonzero(mask)[0])
+        if seeds[first] is not None:
+            # As SMAVectorEnv: the vector env's own generator and np_random_seed follow the first seed.
+            self._np_random, self._np_random_seed = seeding.np_random(seeds[first])
         for b in np.flatnonzero(mask):
             if seeds[b] is not None:
                 self._rngs[b], _ = seeding.np_random(seeds[b])

@@ -224,6 +224,10 @@ MAX_REFERENCE_FREQUENCY_HZ = 100.0
 
 def _field(kind: str, key: str, value: Any) -> float:
     """``value`` of reference field ``key`` as a float, or a ValueError naming the field."""
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        # float("0.004") and float(True) would work: a number arriving as text or a flag is a mistake.
+        what = "a boolean" if isinstance(value, (bool, np.bool_)) else "a string"
+        raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a number, not {what}")
     try:
         return float(value)
     except (TypeError, ValueError):
@@ -252,11 +256,13 @@ def _from_mapping(spec: Mapping[str, Any], rng: np.random.Generator, stroke_m: f
             raise ValueError(
                 f"reference 'random': unknown field(s) {sorted(unknown)}; expected {list(FIELDS['random'])}"
             )
-        try:
-            wp_t = np.asarray(given.get("times_s", []), dtype=float)
-            wp_x = np.asarray(given.get("levels_m", []), dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError("reference 'random': 'times_s' and 'levels_m' must be lists of numbers") from None
+        lists = {}
+        for key in ("times_s", "levels_m"):
+            values = given.get(key, [])
+            if not isinstance(values, (list, tuple, np.ndarray)) or np.ndim(values) != 1:
+                raise ValueError(f"reference 'random' {key} = {values!r}: expected a list of numbers")
+            lists[key] = np.array([_field("random", f"{key}[{k}]", v) for k, v in enumerate(values)], dtype=float)
+        wp_t, wp_x = lists["times_s"], lists["levels_m"]
         if (
             wp_t.ndim != 1
             or wp_t.shape != wp_x.shape

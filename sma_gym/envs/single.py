@@ -80,6 +80,13 @@ def reject_unknown(unknown: dict[str, Any], accepted: tuple[str, ...]) -> None:
         )
     if name == "pwm_mode":
         raise ValueError("pwm_mode: the multiplexed env is always PWM-resolved")
+    if name == "autoreset_mode":
+        # make_vec passes its keywords to each sub-env in the "sync" and "async" modes.
+        raise ValueError(
+            f"autoreset_mode = {unknown[name]!r} is a vector env's setting, not an env's: with "
+            "vectorization_mode='sync' or 'async' give it as vector_kwargs={'autoreset_mode': ...}; "
+            "the native vector env (vectorization_mode='vector_entry_point') takes it directly"
+        )
     raise ValueError(f"unknown env kwargs {sorted(unknown)}: expected some of {list(accepted)}")
 
 

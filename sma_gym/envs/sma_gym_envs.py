@@ -45,7 +45,12 @@ def episode_steps(kwargs: dict[str, Any]) -> dict[str, Any]:
     steps = kwargs.get("max_episode_steps")
     if steps is None:
         steps = EPISODE_STEPS
-    elif isinstance(steps, numbers.Integral) and not isinstance(steps, bool) and steps == -1:
+    elif not isinstance(steps, numbers.Integral) or isinstance(steps, bool) or (steps < 1 and steps != -1):
+        raise ValueError(
+            f"max_episode_steps = {steps!r}: expected an integer >= 1, -1 (never truncate) or None "
+            f"(the registered {EPISODE_STEPS})"
+        )
+    elif steps == -1:
         steps = None
     return {**kwargs, "max_episode_steps": steps}
 

@@ -245,6 +245,12 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         Returns ``(observation, info)`` per index, in the order given (info: that sub-env's
         entries as Python scalars).
         """
+        indices = list(indices)
+        for i in indices:
+            if isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer)) or not 0 <= i < self.num_envs:
+                raise ValueError(
+                    f"reset_envs indices = {indices!r}: expected sub-env indices, integers in [0, {self.num_envs - 1}]"
+                )
         self._reset_envs(np.asarray(sorted({int(i) for i in indices}), dtype=np.int64), options)
         info = self._info()
         return [
@@ -345,7 +351,8 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         if self.variant.randomised:
             info.update({key: value.copy() for key, value in self._condition_info.items()})
         for key in list(info):
-            info["_" + key] = self._all_true
+            # A fresh mask each: a caller editing one must not change another, nor the next reset.
+            info["_" + key] = np.ones(self.num_envs, dtype=bool)
         return info
 
     def _record(self, envs: np.ndarray) -> None:
@@ -402,12 +409,20 @@ def reset_arguments(
         raise ValueError(
             f"options['reset_mask'] = {mask!r}: expected a bool numpy array of shape ({num_envs},) with a True entry"
         )
+
+    def is_seed(value: Any) -> bool:
+        return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)) and value >= 0
+
+    expected = f"expected None, an integer >= 0 or a list of {num_envs} such (or None), one per env"
     if seed is None:
         seeds: list[int | None] = [None] * num_envs
-    elif isinstance(seed, (int, np.integer)):
+    elif is_seed(seed):
         seeds = [int(seed) + i for i in range(num_envs)]
-    else:
+    elif isinstance(seed, (list, tuple, np.ndarray)) and np.ndim(seed) == 1:
         seeds = list(seed)
-        if len(seeds) != num_envs:
-            raise ValueError(f"seed has {len(seeds)} entries: expected {num_envs} (one per env)")
+        if len(seeds) != num_envs or not all(s is None or is_seed(s) for s in seeds):
+            raise ValueError(f"seed = {seed!r}: {expected}")
+        seeds = [None if s is None else int(s) for s in seeds]
+    else:
+        raise ValueError(f"seed = {seed!r}: {expected}")
     return mask, seeds, options
