@@ -189,7 +189,8 @@ class Wire:
     lie 7-8 K apart in the nominal wire (15 K in the report's), differ in slope (§4.2, fig. 4.9)."""
 
     resistivity_reference_c: float = 20.0
-    """T_ref [degC] = 20: temperature at which rho_M and rho_A are given."""
+    """T_ref [degC] = 20: temperature at which rho_M and rho_A are given (our choice: the
+    room temperature the report's resistances were measured at, §4.2, and the datasheet's)."""
 
     # Bounds are what a NiTi-type actuator wire can physically be, wide enough for every
     # alloy and wire sold, narrow enough to catch unit slips (mm for m, GPa for Pa, J/(g K)
@@ -437,7 +438,8 @@ class Convection:
     """T_amb [degC] = 20 (Table 5.1)."""
 
     reference_diameter_m: float = 0.3e-3
-    """d_ref [m]: diameter at which h0 and h2 are given."""
+    """d_ref [m] = 0.3e-3: diameter at which h0 and h2 are given (the report's wire, on which
+    h0 is calibrated)."""
 
     diameter_exponent: float = -0.556
     """n [-] = -0.556: h scales as (d/d_ref)^n (Morgan correlation, see class docstring)."""
@@ -507,7 +509,7 @@ class Driver:
     ``math.inf`` disables the cut."""
 
     end_of_travel_release_m: float = 0.2e-3
-    """[m] = 0.2e-3: power returns once the position has fallen this far below x_eot (our
+    """Delta x_eot [m] = 0.2e-3: power returns once the position has fallen this far below x_eot (our
     choice: an end-of-travel switch has some hysteresis, and without it the cut would chatter
     at the PWM rate)."""
 
@@ -559,20 +561,24 @@ class Sensors:
     500 Hz switching out while adding only 1.6 ms of lag). 0 disables it."""
 
     position_noise_std_m: float = 0.0
-    """[m] = 0: standard deviation of white noise on each position sample (off by default)."""
+    """sigma_x [m] = 0: standard deviation of white noise on each position sample (off by
+    default; our choice: the report gives none; the evaluation harness uses 2 um)."""
 
     position_resolution_m: float = 0.0
-    """[m] = 0: quantisation step of the position reading (0 = none). The 16-bit ADC over a
-    ~10 mm sensor range would give ~0.3 um."""
+    """q_x [m] = 0: quantisation step of the position reading (0 = none; our choice). The
+    report's 16-bit ADC over a ~10 mm sensor range would give ~0.3 um."""
 
     resistance_noise_std_ohm: float = 0.0
-    """[ohm] = 0: standard deviation of noise on each resistance reading."""
+    """sigma_R [ohm] = 0: standard deviation of noise on each resistance reading (our choice:
+    the report gives none)."""
 
     current_noise_std_a: float = 0.0
-    """[A] = 0: standard deviation of noise on each current reading."""
+    """sigma_I [A] = 0: standard deviation of noise on each current reading (our choice: the
+    report gives none)."""
 
     voltage_noise_std_v: float = 0.0
-    """[V] = 0: standard deviation of noise on each voltage reading."""
+    """sigma_V [V] = 0: standard deviation of noise on each voltage reading (our choice: the
+    report gives none)."""
 
     _BOUNDS: ClassVar[tuple[Bound, ...]] = (
         Bound(
@@ -612,12 +618,20 @@ class ActuatorParams:
     """A complete actuator: wire, mechanism, convection, driver and sensors."""
 
     wire: Wire = field(default_factory=Wire)
+    """The SMA wire: geometry, phases, transformation, resistivity (:class:`Wire`)."""
     mechanism: Mechanism = field(default_factory=Mechanism)
+    """The sleigh and the bias spring it pulls against (:class:`Mechanism`)."""
     convection: Convection = field(default_factory=Convection)
+    """How the wire loses heat to its surroundings (:class:`Convection`)."""
     driver: Driver = field(default_factory=Driver)
+    """Supply, PWM and the end-of-travel cut (:class:`Driver`)."""
     sensors: Sensors = field(default_factory=Sensors)
+    """Position filter and the sensors' noise and resolution (:class:`Sensors`)."""
     name: str = "standard"
+    """The name tables, plots, saved files and messages show (a preset's own name unless
+    :meth:`with_changes` is given another)."""
     description: str = "The report's actuator under standard conditions (0.3 mm, 10 V, natural convection, 500 Hz)."
+    """One line on what this actuator is (shown with the name)."""
 
     def __post_init__(self) -> None:
         self.validate()
