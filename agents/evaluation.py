@@ -49,7 +49,9 @@ import numpy as np
 
 from sma_gym._validation import require_positive
 from sma_gym.electrical.multiplexer import SCHEMES
+from sma_gym.envs.references import report_sine, report_step
 from sma_gym.model import load_model
+from sma_gym.params import preset
 from sma_gym_agents.bank import bank_policy
 from sma_gym_agents.card import ALLOCATIONS, BANK_ENV_ID
 from sma_gym_agents.controllers import (
@@ -654,8 +656,9 @@ def _step_and_sine(
     ``sine_seconds`` shorter than the default (quick runs) ends the sine's scoring window there.
     """
     window = (SINE_WINDOW_S[0], min(SINE_WINDOW_S[1], sine_seconds))
+    scale = stroke_scale(model)
     for reference, seconds, metrics in (
-        ("step", STEP_SECONDS, step_metrics),
+        ("step", STEP_SECONDS, lambda tr: step_metrics(tr, level_m=scale * STEP_LEVEL_M)),
         ("sine", sine_seconds, lambda tr: sine_metrics(tr, window)),
     ):
         runs = rollouts_that_finish(
@@ -663,13 +666,31 @@ def _step_and_sine(
             results,
             (experiment, condition, reference),
             model=model,
-            reference=f"report-{reference}",
+            reference=report_reference(reference, scale),
             seconds=seconds,
             seeds=seeds,
         )
         for entry, trace in runs:
             results.records += _records(experiment, entry.name, condition, reference, metrics(trace))
             results.traces[(experiment, entry.name, condition, reference)] = trace
+
+
+def stroke_scale(model: Any) -> float:
+    """``model``'s usable stroke over the report's wire's (9.5 mm): 1 for every preset of the
+    report's experiments; the report's step and sine run at this fraction of their levels."""
+    return load_model(model).actuator.usable_stroke_m / preset("standard").usable_stroke_m
+
+
+def report_reference(name: str, scale: float = 1.0) -> str | dict[str, Any]:
+    """The report's ``"step"`` (8 mm) or ``"sine"`` (1-7 mm) as the harness runs it on an
+    actuator whose stroke is ``scale`` times the report's: the same fractions of its stroke
+    (on a 7.55 mm wire the 8 mm step could not be reached, on the 17 mm real bench it would
+    be half its stroke). With ``scale`` 1 it is the report's own, by name."""
+    if scale == 1.0:
+        return f"report-{name}"
+    spec = (report_step() if name == "step" else report_sine()).describe()
+    spec.pop("name")
+    return {k: v * scale if k.endswith("_m") else v for k, v in spec.items()}
 
 
 def efficiency_reference(ramp_s: float) -> dict:

@@ -499,3 +499,33 @@ def test_an_agent_trained_on_another_actuator_is_scored_on_it_beside_the_baselin
     full_power_w = 7.0**2 / preset("wire-0.2mm").wire.cold_resistance_ohm
     assert 0.8 * full_power_w < np.max(pid["power_w"]) < 1.2 * full_power_w < 10.0
     assert np.max(trace["power_w"]) < 1.2 * full_power_w
+
+
+def test_the_reports_step_and_sine_run_at_the_same_fractions_of_a_shorter_actuators_stroke():
+    """On a 0.25 mm, 0.2 m wire on a stiff spring (usable stroke 7.55 mm) the report's 8 mm
+    step was refused, so train.py's comparison on a user's own actuator stopped; the harness
+    now runs the report's references at the same fractions of the actuator's stroke."""
+    from sma_gym_agents.evaluation import STEP_LEVEL_M, report_reference, run_table_6_1, stroke_scale
+
+    mine = preset("standard").with_changes(
+        **{
+            "wire.diameter_m": 0.25e-3,
+            "wire.length_m": 0.2,
+            "driver.supply_voltage_v": 12.0,
+            "mechanism.spring_stiffness_n_m": 600.0,
+        },
+        name="mine-0.25",
+    )
+    scale = stroke_scale(mine)
+    assert scale == pytest.approx(mine.usable_stroke_m / 9.5e-3) and scale < 8 / 9.5
+    assert stroke_scale("wire-0.5mm") == stroke_scale("standard") == 1.0
+    assert report_reference("step", 1.0) == "report-step"
+    assert report_reference("step", scale)["level1_m"] == pytest.approx(scale * STEP_LEVEL_M)
+    sine = report_reference("sine", scale)
+    assert sine["offset_m"] + sine["amplitude_m"] == pytest.approx(7e-3 * scale)
+    results = Results()
+    run_table_6_1([baseline(PID)], results, seeds=(0,), model=mine, sine_seconds=12.0)
+    step = results.traces[("6.1", "PID", "model mine-0.25", "step")]
+    assert step["reference_m"].max() == pytest.approx(scale * STEP_LEVEL_M)
+    overshoot = results.value("6.1", "PID", "model mine-0.25", "step", "overshoot_m")
+    assert overshoot == pytest.approx(max(0.0, step["position_m"][50:].max() - scale * STEP_LEVEL_M))

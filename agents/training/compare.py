@@ -29,6 +29,7 @@ from sma_gym_agents.evaluation import (
     run_bank_tracking,
     run_chapter_7,
     run_table_6_1,
+    stroke_scale,
     table_6_1_condition,
     trained_model,
 )
@@ -167,6 +168,7 @@ def compare(run: RunConfig, out: Path) -> tuple[str, dict[str, Any]]:
     if run.env_id == ROBUST:
         conditions = list(CHAPTER_7_CONDITIONS) if not run.quick else [CHAPTER_7_CONDITIONS[0]]
         run_chapter_7(entries, results, seeds, conditions)
+        scale = 1.0  # the chapter-7 conditions: the report's wire, its stroke
     else:
         # Scored on the actuator it trained on (the report's numbers only beside the report's).
         model = trained_model(agent)
@@ -175,13 +177,16 @@ def compare(run: RunConfig, out: Path) -> tuple[str, dict[str, Any]]:
             condition = "self-sensing" if model == SELF_SENSING_MODEL else f"self-sensing, {condition}"
         run_table_6_1(entries, results, seeds, condition=condition, model=model)
         conditions = [(condition, "")]
+        scale = stroke_scale(model)
     write_report(results, out / "evaluation")
-    return summarise(run, results, agent.name, conditions)
+    return summarise(run, results, agent.name, conditions, scale)
 
 
 def summarise(
-    run: RunConfig, results: Results, agent: str, conditions: list[tuple[str, str]]
+    run: RunConfig, results: Results, agent: str, conditions: list[tuple[str, str]], scale: float = 1.0
 ) -> tuple[str, dict[str, Any]]:
+    """``scale``: the actuator's usable stroke over the report's (the references' levels were
+    scaled by it, :func:`sma_gym_agents.evaluation.report_reference`)."""
     """``results.md``'s table of the agent and baselines, and its goals (:data:`GOALS`) checked."""
     experiment = {ROBUST: "7", BANK: "9 bank tracking"}.get(run.env_id, "6.1")
     policies = results.distinct(experiment, "policy")
@@ -211,7 +216,8 @@ def summarise(
     lines = [
         f"# {run.algo.upper()} on {run.env_id} beside the report's controllers",
         "",
-        "References the agent never trained on: the report's 8 mm step and 0.1 Hz, 3 mm sine.",
+        "References the agent never trained on: the report's 8 mm step and 0.1 Hz, 3 mm sine"
+        + ("." if scale == 1.0 else f", scaled by {scale:.3f} to this actuator's usable stroke."),
         "Worst case over the harness's seeds (three; one with --quick); lengths in mm.",
         "",
         "| policy | condition | RMS step | RMS sine | overshoot | steady-state error | energy sine [J] |",
