@@ -15,15 +15,24 @@ from pathlib import Path
 from sma_gym import fidelity
 from sma_gym._io import check_output_folder, locked_folder, remove_outputs
 from sma_gym.cli import Command
-from sma_gym.extras import extra_error
+from sma_gym.extras import MissingExtraError, extra_error, install_hint, missing
 
 try:
     from sma_gym_agents import evaluation, report_targets
     from sma_gym_agents.report import table_6_1_markdown, write_report
     from sma_gym_agents.trained import load_policy
 except ModuleNotFoundError as err:
-    # Listed by `sma-gym --help` as unavailable, naming the extra that makes both work.
-    raise extra_error(err, "sma-gym evaluate and sma-gym fidelity", modules=("matplotlib", "scipy")) from err
+    # Listed by `sma-gym --help` as unavailable, naming the extra that makes both work, and
+    # the one extra that makes evaluate work too (else it took two installs to find out).
+    error = extra_error(err, "sma-gym evaluate and sma-gym fidelity", modules=("matplotlib", "scipy"))
+    if isinstance(error, MissingExtraError) and missing("stable_baselines3"):
+        error = MissingExtraError(
+            f"{error}; sma-gym evaluate needs stable-baselines3 as well, and "
+            f"{install_hint(['stable_baselines3'])} installs all of them",
+            error.name or "",
+            error.hint,
+        )
+    raise error from err
 
 
 # --------------------------------------------------------------------------------------

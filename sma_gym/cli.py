@@ -321,7 +321,8 @@ def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--model",
         default=None,
-        help=f"nominal model: a preset or twin name or a model JSON file (default {DEFAULT_DIAGNOSIS_MODEL})",
+        help="nominal model: a preset or twin name or a model JSON file (default: the model the files' sidecars "
+        f"name, else {DEFAULT_DIAGNOSIS_MODEL})",
     )
     p.add_argument("--effects", help="comma-separated subset of effects to consider (default: all)")
     p.add_argument(

@@ -170,6 +170,8 @@ def test_without_an_extra_each_command_names_the_extra_to_install():
         # What the commands' module needs to load; evaluate also needs the train extra (below).
         assert result[name][0] == 2 and re.search(_hint("diagnose,plots"), result[name][1]), result[name]
         assert "matplotlib, scipy not installed" in result[name][1]
+        # ... and the one install that makes evaluate work too (it took two to find out).
+        assert re.search(r"evaluate needs stable-baselines3 as well, and " + _hint("train"), result[name][1])
     assert result["train"][0] == 2 and re.search(_hint("train"), result["train"][1])
     assert "pip install torch==2.13.0 " in result["train"][1], "the train hint pins torch as the README does"
     assert "CUDA" in result["train"][1], "and says why"
