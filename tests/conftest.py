@@ -13,8 +13,15 @@ and turn any failure it finds into a fix and, where it names a case worth keepin
 
 import os
 
-import pytest
-from hypothesis import HealthCheck, settings
+# The README's command runs two pytest-xdist workers on two cores. torch's and OpenBLAS's
+# default pools start a thread per core in each worker, four on two cores, and a pool that
+# spins while another holds the core thrashes. One thread each, unless the caller set it
+# (before numpy or torch is imported, which read these once).
+for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
+
+import pytest  # noqa: E402
+from hypothesis import HealthCheck, settings  # noqa: E402
 
 settings.register_profile("deterministic", derandomize=True, print_blob=True)
 settings.register_profile("explore", derandomize=False, print_blob=True, suppress_health_check=[HealthCheck.too_slow])
