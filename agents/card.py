@@ -78,8 +78,10 @@ def card_model(model: Any) -> Any:
     """A model as a card holds it: a preset or twin name as given, anything else (a model
     file's path, ActuatorParams, ModelConfig, a dict) as its full configuration, so the card
     runs the agent on the actuator it trained on even after the file is edited or moved."""
-    if model is None or (isinstance(model, (str, os.PathLike)) and os.fspath(model) in model_names()):
-        return None if model is None else os.fspath(model)
+    if model is None:
+        return None
+    if isinstance(model, (str, os.PathLike)) and os.fspath(model) in model_names():
+        return os.fspath(model)
     return load_model(model).to_dict()
 
 

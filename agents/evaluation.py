@@ -50,6 +50,7 @@ import numpy as np
 from sma_gym._validation import require_positive
 from sma_gym.electrical.multiplexer import SCHEMES
 from sma_gym.envs.references import report_sine, report_step
+from sma_gym.envs.single import SELF_SENSING
 from sma_gym.model import load_model
 from sma_gym.params import preset
 from sma_gym_agents.bank import bank_policy
@@ -619,6 +620,12 @@ def table_6_1_condition(model: Any) -> str:
     return "standard" if _is_standard(model) else f"model {_model_label(model)}"
 
 
+def self_sensing_condition(model: Any) -> str:
+    """The condition the self-sensing comparison on ``model`` is recorded under:
+    ``"self-sensing"`` on the report's (:data:`SELF_SENSING_MODEL`), else it names the model."""
+    return "self-sensing" if model == SELF_SENSING_MODEL else f"self-sensing, {table_6_1_condition(model)}"
+
+
 def _is_standard(model: Any) -> bool:
     return model is None or (isinstance(model, str) and model == "standard")
 
@@ -1071,13 +1078,13 @@ def evaluate(
         with_sensor = [e for e in base if e.name in ("PID", "VSC3 + FF")]
         for model, group in _by_model(sensing, default=SELF_SENSING_MODEL):
             readers = [baseline(PID, True), baseline(with_feedforward(VSC3), True)]
-            condition = "self-sensing" if model == SELF_SENSING_MODEL else f"self-sensing, {table_6_1_condition(model)}"
+            condition = self_sensing_condition(model)
             entries = readers + [agent_entry(a) for a in group] + with_sensor
             run_table_6_1(entries, results, seeds, condition=condition, model=model)
     return results
 
 
-SELF_SENSING_MODEL = "forced-convection"
+SELF_SENSING_MODEL = SELF_SENSING.default_model
 """The model of the report's self-sensing experiments (§4.2, with a fan): the self-sensing env's default."""
 
 

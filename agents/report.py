@@ -47,18 +47,14 @@ def table_6_1_markdown(results: Results, condition: str | None = None) -> str:
     if condition is None:
         recorded = results.distinct("6.1", "condition")
         condition = recorded[0] if len(recorded) == 1 else "standard"
+    scaled = (
+        "The report's 8 mm step and 1-7 mm sine at the same fractions of this actuator's usable stroke "
+        "(the report's is 9.5 mm)."
+    )
     lines = [
         f"### Table 6.1 ({condition} conditions): simulated" + (" (report)" if condition == "standard" else ""),
         "",
-        *(
-            []
-            if condition == "standard"
-            else [
-                "The report's 8 mm step and 1-7 mm sine at the same fractions of this actuator's usable stroke "
-                "(the report's is 9.5 mm).",
-                "",
-            ]
-        ),
+        *([] if condition == "standard" else [scaled, ""]),
         "| controller | overshoot [mm] | steady-state error [mm] | max error heating [mm] | max error cooling [mm] | RMS step [mm] | RMS sine [mm] | energy sine [J] | worst RMS sine over seeds [mm] |",
         "|---|---|---|---|---|---|---|---|---|",
     ]

@@ -18,7 +18,6 @@ from sma_gym_agents.controllers import ALL_SPECS, PID, VSC3, with_feedforward
 from sma_gym_agents.evaluation import (
     BANK_PRIORITY_SPEC,
     CHAPTER_7_CONDITIONS,
-    SELF_SENSING_MODEL,
     PolicyEntry,
     Results,
     agent_entry,
@@ -29,6 +28,7 @@ from sma_gym_agents.evaluation import (
     run_bank_tracking,
     run_chapter_7,
     run_table_6_1,
+    self_sensing_condition,
     stroke_scale,
     table_6_1_condition,
     trained_model,
@@ -172,9 +172,7 @@ def compare(run: RunConfig, out: Path) -> tuple[str, dict[str, Any]]:
     else:
         # Scored on the actuator it trained on (the report's numbers only beside the report's).
         model = trained_model(agent)
-        condition = table_6_1_condition(model)
-        if run.env_id == SELF_SENSING:
-            condition = "self-sensing" if model == SELF_SENSING_MODEL else f"self-sensing, {condition}"
+        condition = self_sensing_condition(model) if run.env_id == SELF_SENSING else table_6_1_condition(model)
         run_table_6_1(entries, results, seeds, condition=condition, model=model)
         conditions = [(condition, "")]
         scale = stroke_scale(model)
