@@ -51,8 +51,8 @@ from sma_gym._validation import require_positive
 from sma_gym.electrical.multiplexer import SCHEMES
 from sma_gym.envs.references import report_sine, report_step
 from sma_gym.envs.single import SELF_SENSING
-from sma_gym.model import load_model
-from sma_gym.params import preset
+from sma_gym.model import ModelConfig, load_model, model_names
+from sma_gym.params import preset, preset_names
 from sma_gym_agents.bank import bank_policy
 from sma_gym_agents.card import ALLOCATIONS, BANK_ENV_ID
 from sma_gym_agents.controllers import (
@@ -627,14 +627,25 @@ def self_sensing_condition(model: Any) -> str:
 
 
 def _is_standard(model: Any) -> bool:
-    return model is None or (isinstance(model, str) and model == "standard")
+    """The report's standard model: by that name, as None, or as a configuration equal to it."""
+    if model is None:
+        return True
+    if isinstance(model, str) and model in model_names():
+        return model == "standard"
+    return load_model(model) == ModelConfig(preset("standard"))
 
 
 def _model_label(model: Any) -> str:
-    """A model as a label: the name or path given, else the configuration's name."""
+    """A model as a label: the name or path given, else the configuration's name, marked
+    ``(changed)`` where it carries a preset's name but not its values (``with_changes``
+    keeps the name unless given one)."""
     if isinstance(model, (str, os.PathLike)):
         return str(model)
-    return load_model(model).name
+    config = load_model(model)
+    actuator = config.actuator
+    if actuator.name in preset_names() and actuator != preset(actuator.name):
+        return f"{actuator.name} (changed){config.name.removeprefix(actuator.name)}"
+    return config.name
 
 
 def run_chapter_7(
@@ -1108,6 +1119,8 @@ def _by_model(agents: Sequence[AgentPolicy], default: Any = "standard") -> list[
 
 
 def _model_key(model: Any) -> str:
+    if _is_standard(model):
+        return "standard"  # however given: one group, one Table 6.1 beside the report's
     if isinstance(model, (str, os.PathLike)):
         return os.fspath(model)
     return json.dumps(load_model(model).to_dict(), sort_keys=True)

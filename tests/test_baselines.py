@@ -224,10 +224,15 @@ def test_table_6_1_of_another_actuator_is_labelled_by_it_and_never_set_beside_th
     mine = preset("standard").with_changes(**{"wire.diameter_m": 0.2e-3, "driver.supply_voltage_v": 5.0})
     results = Results()
     run_table_6_1([baseline(PID)], results, seeds=(0,), model=mine, sine_seconds=12.0)
-    assert results.distinct("6.1", "condition") == ["model standard"]
+    assert results.distinct("6.1", "condition") == ["model standard (changed)"]
     table = table_6_1_markdown(results)
-    assert "(model standard conditions): simulated\n" in table and "(+0.061)" not in table, table
+    assert "(model standard (changed) conditions): simulated\n" in table and "(+0.061)" not in table, table
     assert "| PID |" in table
+    # The standard model given as a configuration is the standard one: the report's numbers beside it.
+    from sma_gym_agents.evaluation import table_6_1_condition
+
+    assert table_6_1_condition(preset("standard")) == table_6_1_condition(None) == "standard"
+    assert table_6_1_condition(preset("wire-0.5mm")) == "model wire-0.5mm"
 
 
 @pytest.mark.parametrize("seconds", [0.0, -1.0, float("nan"), "2", 1e-4])
