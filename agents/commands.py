@@ -220,6 +220,8 @@ def evaluate(
     else:
         tables = [table_6_1_markdown(results, c) for c in results.distinct("6.1", "condition")]
         print("\n\n".join(tables) if tables else f"{len(results.records)} metrics")
+        for note in results.notes:
+            print(f"\nnote: {note}")
         if out:
             print(f"\nreport written to {Path(out).resolve() / 'evaluation.md'} ({len(paths)} files)")
     return 0

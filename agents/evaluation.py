@@ -38,6 +38,7 @@ controllers filter their input against noise, so there should be some).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -564,6 +565,11 @@ def _records(
 class Results:
     records: list[Record] = field(default_factory=list)
     traces: dict[tuple, Trace] = field(default_factory=dict)
+    strokes_m: dict[str, float] = field(default_factory=dict)
+    """Each Table 6.1 condition's actuator's usable stroke [m] (its references' scale)."""
+    notes: list[str] = field(default_factory=list)
+    """What a reader should know that no table shows (e.g. an agent a chapter did not score)."""
+    _models: dict[str, str] = field(default_factory=dict, repr=False)
 
     def value(
         self, experiment: str, policy: str, condition: str, reference: str, metric: str, worst: bool = False
@@ -610,8 +616,25 @@ def run_table_6_1(
     """
     if condition is None:
         condition = table_6_1_condition(model)
+    key = _model_key(model)
+    if results._models.setdefault(condition, key) != key:
+        # Two actuators that share a name would be read as one table.
+        raise ValueError(
+            f"condition = {condition!r}: these results already hold Table 6.1 of another model under it; "
+            "give condition= a label of its own for this one"
+        )
+    results.strokes_m[condition] = load_model(model).actuator.usable_stroke_m
     for group in batchable(entries):
         _step_and_sine("6.1", group, model, condition, results, seeds, sine_seconds)
+
+
+def distinct_condition(results: Results, condition: str, model: Any) -> str:
+    """``condition``, or where ``results`` already hold another model under it (two actuators
+    named alike), the label with a short digest of this model's configuration added."""
+    key = _model_key(model)
+    if results._models.get(condition, key) == key:
+        return condition
+    return f"{condition} [{hashlib.sha256(key.encode()).hexdigest()[:8]}]"
 
 
 def table_6_1_condition(model: Any) -> str:
@@ -693,10 +716,14 @@ def _step_and_sine(
             results.traces[(experiment, entry.name, condition, reference)] = trace
 
 
+STANDARD_STROKE_M = preset("standard").usable_stroke_m
+"""The report's wire's usable stroke [m] (9.5 mm), which the report's step and sine are set in."""
+
+
 def stroke_scale(model: Any) -> float:
     """``model``'s usable stroke over the report's wire's (9.5 mm): 1 for every preset of the
     report's experiments; the report's step and sine run at this fraction of their levels."""
-    return load_model(model).actuator.usable_stroke_m / preset("standard").usable_stroke_m
+    return load_model(model).actuator.usable_stroke_m / STANDARD_STROKE_M
 
 
 def report_reference(name: str, scale: float = 1.0) -> str | dict[str, Any]:
@@ -1060,7 +1087,15 @@ def evaluate(
     base = list(baselines) if baselines is not None else default_entries()
     if "6.1" in experiments:
         for model, group in _by_model(tracking):
-            run_table_6_1(base + [agent_entry(a) for a in group], results, seeds, model=model)
+            condition = distinct_condition(results, table_6_1_condition(model), model)
+            run_table_6_1(base + [agent_entry(a) for a in group], results, seeds, condition=condition, model=model)
+    for a in tracking:
+        if not _is_standard(trained_model(a)) and {"7", "8"} & set(experiments):
+            results.notes.append(
+                f"{a.name} trained on another model than the report's standard wire ({table_6_1_condition(trained_model(a))}): "
+                "chapters 7 and 8 run the report's wire under its conditions, so they do not score it; its Table 6.1 is "
+                "on its own model"
+            )
     if "7" in experiments:
         chosen = [e for e in base if e.name in {s.label for s in CHAPTER_7_SPECS}] if baselines is None else base
         run_chapter_7(chosen + tracking_agents, results, seeds, CHAPTER_7_CONDITIONS[1:])
@@ -1089,7 +1124,7 @@ def evaluate(
         with_sensor = [e for e in base if e.name in ("PID", "VSC3 + FF")]
         for model, group in _by_model(sensing, default=SELF_SENSING_MODEL):
             readers = [baseline(PID, True), baseline(with_feedforward(VSC3), True)]
-            condition = self_sensing_condition(model)
+            condition = distinct_condition(results, self_sensing_condition(model), model)
             entries = readers + [agent_entry(a) for a in group] + with_sensor
             run_table_6_1(entries, results, seeds, condition=condition, model=model)
     return results

@@ -11,7 +11,7 @@ from sma_gym.electrical.multiplexer import io_counts
 from sma_gym.plotting import new_figure, save
 from sma_gym.provenance import describe, provenance
 from sma_gym_agents.controllers import ALL_SPECS
-from sma_gym_agents.evaluation import CHAPTER_8_CASES, ENDED_EARLY, TABLE_6_1, Results
+from sma_gym_agents.evaluation import CHAPTER_8_CASES, ENDED_EARLY, STANDARD_STROKE_M, TABLE_6_1, Results
 
 
 def _mm(value: float, signed: bool = True) -> str:
@@ -47,14 +47,16 @@ def table_6_1_markdown(results: Results, condition: str | None = None) -> str:
     if condition is None:
         recorded = results.distinct("6.1", "condition")
         condition = recorded[0] if len(recorded) == 1 else "standard"
+    scale = results.strokes_m.get(condition, STANDARD_STROKE_M) / STANDARD_STROKE_M
     scaled = (
-        "The report's 8 mm step and 1-7 mm sine at the same fractions of this actuator's usable stroke "
-        "(the report's is 9.5 mm)."
+        f"The report's 8 mm step and 1-7 mm sine at the same fractions of this actuator's usable stroke, "
+        f"{scale * STANDARD_STROKE_M * 1e3:.2f} mm (the report's 9.5 mm): a step to {scale * 8:.2f} mm and a "
+        f"sine from {scale * 1:.2f} to {scale * 7:.2f} mm."
     )
     lines = [
         f"### Table 6.1 ({condition} conditions): simulated" + (" (report)" if condition == "standard" else ""),
         "",
-        *([] if condition == "standard" else [scaled, ""]),
+        *([] if scale == 1.0 else [scaled, ""]),
         "| controller | overshoot [mm] | steady-state error [mm] | max error heating [mm] | max error cooling [mm] | RMS step [mm] | RMS sine [mm] | energy sine [J] | worst RMS sine over seeds [mm] |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
@@ -271,6 +273,7 @@ def write_report(results: Results, out: Path) -> list[Path]:
         "Simulated values, with the report's in parentheses where it gives them; a table whose title says so "
         "has the worst over seeds there instead (the report gives one run).",
         "",
+        *[f"Note: {note}\n" for note in results.notes],
     ]
     policies_61 = _policies(results, "6.1")
     conditions_61 = results.distinct("6.1", "condition")

@@ -26,6 +26,8 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
+import numpy as np
+
 from sma_gym._validation import Bound, check_bounds, require_choice, require_range
 from sma_gym.physics.transformation import MINOR_LOOP_LAWS, WIDTH_PAIRINGS
 
@@ -758,8 +760,15 @@ class ActuatorParams:
         return replace(self, **top)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain nested dict (JSON-serialisable)."""
-        return dataclasses.asdict(self)
+        """Plain nested dict (JSON-serialisable: a numpy number given as a value, e.g.
+        ``np.float32(12)``, is written as the Python number it stands for)."""
+
+        def plain(tree: Any) -> Any:
+            if isinstance(tree, dict):
+                return {k: plain(v) for k, v in tree.items()}
+            return tree.item() if isinstance(tree, np.generic) else tree
+
+        return plain(dataclasses.asdict(self))
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ActuatorParams:

@@ -6,13 +6,14 @@ Findings it does not reproduce are listed in docs/baselines.md with the reason, 
 
 import dataclasses
 import json
+import re
 
 import gymnasium as gym
 import numpy as np
 import pytest
 from stable_baselines3.common.evaluation import evaluate_policy
 
-from sma_gym import preset
+from sma_gym import ModelConfig, preset
 from sma_gym.cli import main
 from sma_gym.provenance import describe, provenance
 from sma_gym_agents import ALL_SPECS, ControllerPolicy, ResistanceCalibration
@@ -534,3 +535,46 @@ def test_the_reports_step_and_sine_run_at_the_same_fractions_of_a_shorter_actuat
     assert step["reference_m"].max() == pytest.approx(scale * STEP_LEVEL_M)
     overshoot = results.value("6.1", "PID", "model mine-0.25", "step", "overshoot_m")
     assert overshoot == pytest.approx(max(0.0, step["position_m"][50:].max() - scale * STEP_LEVEL_M))
+
+
+def test_two_actuators_that_share_a_name_get_a_table_each_and_a_chapter_that_skips_an_agent_says_so():
+    """Two agents trained on different wires that share a name ("mine", 7 V and 6 V) were
+    recorded under one condition, so one table set the 7 V wire's PID beside the 6 V agent;
+    and chapters 7 and 8 left such agents out without a word."""
+    from stable_baselines3 import PPO
+
+    from sma_gym_agents.evaluation import distinct_condition, evaluate
+    from sma_gym_agents.report import table_6_1_markdown
+    from sma_gym_agents.trained import AgentPolicy
+
+    wires = [
+        preset("wire-0.2mm").with_changes(**{"driver.supply_voltage_v": v, "wire.length_m": 0.2}, name="mine")
+        for v in (7.0, 6.0)
+    ]
+    with pytest.raises(ValueError, match=r"condition = 'model mine': these results already hold Table 6.1 of another"):
+        results = Results()
+        for wire in wires:
+            run_table_6_1([baseline(PID)], results, seeds=(0,), model=wire, sine_seconds=12.0)
+    assert distinct_condition(results, "model mine", wires[0]) == "model mine"
+    other = distinct_condition(results, "model mine", wires[1])
+    assert re.fullmatch(r"model mine \[[0-9a-f]{8}\]", other)
+
+    agents = []
+    for k, wire in enumerate(wires):
+        env = gym.make("sma_gym:SMATracking-v0", model=wire)
+        model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=1, seed=k, device="cpu")
+        agents.append(AgentPolicy(model, f"agent {k}", "SMATracking-v0", {"model": ModelConfig(wire).to_dict()}))
+    results = evaluate(agents, ["6.1", "8"], seeds=(0,), baselines=[baseline(PID)])
+    assert results.distinct("6.1", "condition") == ["standard", "model mine", other]
+    for k, condition in ((0, "model mine"), (1, other)):
+        assert {r.condition for r in results.records if r.policy == f"agent {k}"} == {condition}
+        # Each table's PID ran on that table's wire (7 V and 6 V: full powers 1.36x apart).
+        full_power_w = (7.0, 6.0)[k] ** 2 / wires[k].wire.cold_resistance_ohm
+        pid = results.traces[("6.1", "PID", condition, "step")]
+        assert 0.85 * full_power_w < np.max(pid["power_w"]) < 1.3 * full_power_w  # R falls as it contracts
+    assert not any(r.experiment == "8" and r.policy.startswith("agent") for r in results.records)
+    assert len(results.notes) == 2 and all("chapters 7 and 8" in n and "model mine" in n for n in results.notes)
+    # The references were not the report's 8 mm: the table names the levels it ran.
+    assert f"a step to {8 * results.strokes_m['model mine'] / 9.5e-3:.2f} mm" in table_6_1_markdown(
+        results, "model mine"
+    )

@@ -226,3 +226,12 @@ def test_a_boolean_quantity_and_a_name_that_is_not_text_are_refused_where_they_a
         p.with_changes(name=3)
     with pytest.raises(ValueError, match=r"ActuatorParams.description = None: expected a string"):
         p.with_changes(description=None)
+
+
+def test_a_numpy_number_given_as_a_value_is_saved_as_the_number_it_stands_for(tmp_path):
+    """np.float32(12) as a supply voltage was accepted, and then ModelConfig.save failed with
+    "Object of type float32 is not JSON serializable", naming no field."""
+    p = preset("standard").with_changes(**{"driver.supply_voltage_v": np.float32(12), "wire.length_m": np.int64(1)})
+    ModelConfig(p).save(tmp_path / "m.json")
+    loaded = load_model(tmp_path / "m.json").actuator
+    assert loaded.driver.supply_voltage_v == 12.0 and loaded.wire.length_m == 1.0
