@@ -565,8 +565,8 @@ def _records(
 class Results:
     records: list[Record] = field(default_factory=list)
     traces: dict[tuple, Trace] = field(default_factory=dict)
-    strokes_m: dict[str, float] = field(default_factory=dict)
-    """Each Table 6.1 condition's actuator's usable stroke [m] (its references' scale)."""
+    scales: dict[str, float] = field(default_factory=dict)
+    """Each Table 6.1 condition's :func:`stroke_scale` (its references' levels over the report's)."""
     notes: list[str] = field(default_factory=list)
     """What a reader should know that no table shows (e.g. an agent a chapter did not score)."""
     _models: dict[str, str] = field(default_factory=dict, repr=False)
@@ -623,7 +623,7 @@ def run_table_6_1(
             f"condition = {condition!r}: these results already hold Table 6.1 of another model under it; "
             "give condition= a label of its own for this one"
         )
-    results.strokes_m[condition] = load_model(model).actuator.usable_stroke_m
+    results.scales[condition] = stroke_scale(model)
     for group in batchable(entries):
         _step_and_sine("6.1", group, model, condition, results, seeds, sine_seconds)
 

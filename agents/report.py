@@ -47,7 +47,7 @@ def table_6_1_markdown(results: Results, condition: str | None = None) -> str:
     if condition is None:
         recorded = results.distinct("6.1", "condition")
         condition = recorded[0] if len(recorded) == 1 else "standard"
-    scale = results.strokes_m.get(condition, STANDARD_STROKE_M) / STANDARD_STROKE_M
+    scale = results.scales.get(condition, 1.0)
     scaled = (
         f"The report's 8 mm step and 1-7 mm sine at the same fractions of this actuator's usable stroke, "
         f"{scale * STANDARD_STROKE_M * 1e3:.2f} mm (the report's 9.5 mm): a step to {scale * 8:.2f} mm and a "

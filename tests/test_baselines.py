@@ -575,6 +575,4 @@ def test_two_actuators_that_share_a_name_get_a_table_each_and_a_chapter_that_ski
     assert not any(r.experiment == "8" and r.policy.startswith("agent") for r in results.records)
     assert len(results.notes) == 2 and all("chapters 7 and 8" in n and "model mine" in n for n in results.notes)
     # The references were not the report's 8 mm: the table names the levels it ran.
-    assert f"a step to {8 * results.strokes_m['model mine'] / 9.5e-3:.2f} mm" in table_6_1_markdown(
-        results, "model mine"
-    )
+    assert f"a step to {8 * results.scales['model mine']:.2f} mm" in table_6_1_markdown(results, "model mine")
