@@ -681,7 +681,16 @@ class ActuatorParams:
                 "where it rests cold and extended"
             )
 
-    # Convenience -----------------------------------------------------------------------
+        # Convenience -----------------------------------------------------------------------
+        # The envs scale positions by the usable stroke: a wire whose thermal expansion up to
+        # its transformation eats all of eps0 has none.
+        if self.loaded_reach_m <= 0.0:
+            raise ValueError(
+                f"Wire.max_transformation_strain = {self.wire.max_transformation_strain!r}: the loaded, heated wire "
+                "does not contract at all (its thermal expansion up to A_f + sigma / C_A exceeds it, "
+                "ActuatorParams.loaded_reach_m); expected a strain that leaves a stroke"
+            )
+
     @property
     def highest_rest_temperature_c(self) -> float:
         """A_s + sigma0 / C_A [degC]: the heating branch's start at the rest stress, above which

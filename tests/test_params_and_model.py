@@ -235,3 +235,13 @@ def test_a_numpy_number_given_as_a_value_is_saved_as_the_number_it_stands_for(tm
     ModelConfig(p).save(tmp_path / "m.json")
     loaded = load_model(tmp_path / "m.json").actuator
     assert loaded.driver.supply_voltage_v == 12.0 and loaded.wire.length_m == 1.0
+
+
+def test_a_wire_whose_expansion_eats_its_transformation_strain_is_refused():
+    """Its loaded reach, and so the envs' position scale, was 0 (positions divided by 0)."""
+    p = preset("standard")
+    with pytest.raises(
+        ValueError, match=r"max_transformation_strain = 0.001: the loaded, heated wire does not contract"
+    ):
+        p.with_changes(**{"wire.max_transformation_strain": 0.001})
+    assert p.with_changes(**{"wire.max_transformation_strain": 0.01}).loaded_reach_m > 0.0
