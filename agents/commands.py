@@ -154,6 +154,7 @@ EVALUATE_OUTPUTS = (
     "evaluation.md",
     "evaluation.json",
     "fig6_[2356]_*.png",
+    "table6_1_*.png",
     "self_sensing_*.png",
     "chapter7_*.png",
     "fig9_multiplexed.png",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -237,7 +238,14 @@ def bank_markdown(results: Results) -> str:
 
 
 def _plot_responses(
-    results: Results, experiment: str, condition: str, reference: str, policies: Sequence[str], title: str, out: Path
+    results: Results,
+    experiment: str,
+    condition: str,
+    reference: str,
+    policies: Sequence[str],
+    title: str,
+    out: Path,
+    error_limit_mm: float = 1.5,
 ) -> Path | None:
     """Position, error and duty of ``policies``; None (no file) when none of them ran there."""
     traced = [
@@ -258,7 +266,7 @@ def _plot_responses(
         axes[0, 0].plot(t, ref * 1e3, "k--", lw=1, label="reference")
     axes[0, 0].set(ylabel="position [mm]", title=title)
     axes[1, 0].set(ylabel="error r - x [mm]")
-    axes[1, 0].set_ylim(-1.5, 1.5)
+    axes[1, 0].set_ylim(-error_limit_mm, error_limit_mm)
     axes[2, 0].set(ylabel="duty [-]", xlabel="time [s]")
     axes[0, 0].legend(fontsize=7)
     return save(fig, out)
@@ -314,6 +322,30 @@ def write_report(results: Results, out: Path) -> list[Path]:
                     groups["without_ff"] + groups["with_ff"] + groups["self_sensing"] + groups["agents"],
                     f"self-sensing, {refname}",
                     out / f"self_sensing_{refname}.png",
+                )
+            )
+    # Any other condition (an actuator of the user's own, or an agent's model): its policies'
+    # step and sine, so that every table has its figure.
+    slugs: set[str] = set()
+    for condition in conditions_61:
+        if condition in ("standard", "self-sensing"):
+            continue
+        slug = re.sub(r"[^A-Za-z0-9.-]+", "_", condition).strip("_.") or "condition"
+        while slug in slugs:
+            slug += "_"
+        slugs.add(slug)
+        for refname in ("step", "sine"):
+            paths.append(
+                _plot_responses(
+                    results,
+                    "6.1",
+                    condition,
+                    refname,
+                    policies_61,
+                    f"{refname} response, {condition}",
+                    out / f"table6_1_{slug}_{refname}.png",
+                    # The errors of a longer stroke at the same fractions of it are larger.
+                    error_limit_mm=1.5 * max(1.0, results.scales.get(condition, 1.0)),
                 )
             )
     if _policies(results, "7"):

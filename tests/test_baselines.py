@@ -377,6 +377,18 @@ def test_report_of_a_standard_evaluation_has_the_reports_figures(tmp_path):
     assert md.count("### Table 6.1") == 1 and "(0.757)" in md  # the report's PID overshoot beside ours
 
 
+def test_report_of_another_actuators_table_has_its_figures_too(tmp_path):
+    """An agent trained on the user's own actuator, with the baselines on it: its table got
+    no figure (only the standard and self-sensing conditions were plotted)."""
+    from sma_gym_agents.report import write_report
+
+    condition = "model runs/my wire.json"
+    paths = write_report(_synthetic_results(condition, ["PID", "VSC3 + FF", "PPO agent"]), tmp_path)
+    names = sorted(p.name for p in paths if p.suffix == ".png")
+    assert names == ["table6_1_model_runs_my_wire.json_sine.png", "table6_1_model_runs_my_wire.json_step.png"]
+    assert all((tmp_path / n).stat().st_size > 0 for n in names)
+
+
 def test_oscillation_is_motion_about_the_trend_not_a_settling_tail_or_a_drift():
     """Chapter 9's "1 actuator does not oscillate" read 0.128 mm on a step still settling
     monotonically in its last 2 s, and VSC1 + FF's "oscillates" (Table 6.1) a creep of

@@ -236,6 +236,12 @@ def test_cli_writes_report_model_and_json_and_the_env_runs_on_the_correction(tmp
         assert {"position", "resistance"} <= set(result[gap]["heldout"])
     assert all("uncertainty" in p for p in result["parameters"].values())
     assert result["where"]["files"][0]["regimes"]["position"]
+    assert result["held_out_files"] == ["held.csv"] and result["held_out"] == "the file held.csv"
+    # Every candidate says which rule it failed; the named one none.
+    reasons = {c["name"]: (c["supported"], c["not_supported_because"]) for c in result["candidates"][1:]}
+    assert result["candidates"][0]["name"] == "nominal refit"  # the reference, not a candidate for support
+    assert reasons["latent_heat"] == (True, "") and all(s != bool(r) for s, r in reasons.values())
+    assert result["conditions"] == {"supply_voltage_v": 10.0, "pwm_frequency_hz": 500.0}
     out = tmp_path / "out"
     assert (out / "diagnosis.md").read_text().startswith("# Diagnosis")
     written = json.loads((out / "diagnosis.json").read_text())
@@ -339,8 +345,15 @@ def test_synth_cli_writes_data_sidecar_and_separate_labels(tmp_path, capsys):
         and labels["form"] == "stribeck"
     )
     assert "effect" not in json.loads((tmp_path / "s.csv.json").read_text())
+    assert json.loads((tmp_path / "s.csv.json").read_text())["model"] == "standard"
+    assert "note" not in capsys.readouterr().err
     assert main(["synth", "--out", str(tmp_path / "s.csv"), "--duration", "10"]) == 2  # no overwrite
     assert "--overwrite" in capsys.readouterr().err
+    # A model file has no name diagnose could look up: the sidecar names none, and synth says so.
+    mine = ModelConfig().with_actuator(**{"wire.diameter_m": 0.25e-3}).save(tmp_path / "mine.json")
+    assert main(["synth", "--out", str(tmp_path / "m.csv"), "--duration", "5", "--model", str(mine)]) == 0
+    assert "model" not in json.loads((tmp_path / "m.csv.json").read_text())
+    assert f"--model {mine}" in capsys.readouterr().err
     assert main(["synth", "--out", str(tmp_path / "t.csv"), "--effect", "warp"]) == 2
 
 

@@ -103,6 +103,7 @@ def test_an_effect_that_ended_off_is_no_evidence_for_it():
     off = candidate(held, "pulse_settling", -31.0, smooth(1, 6.0), inert=True)
     r = judge(held, ref, [off])
     assert r.verdict == "unexplained" and not off.supported
+    assert off.why_not.startswith("inert")
 
 
 def test_a_refit_at_the_noise_leaves_nothing_to_explain():
@@ -139,7 +140,8 @@ def test_a_runner_up_short_of_the_bic_bar_still_counts_as_a_rival():
     best = candidate(held, "coulomb_friction", -30.0, smooth(1, 10.0))
     runner = candidate(held, "abbe_offset", -5.0, smooth(2, 10.2))  # dBIC -5: not supported
     r = judge(held, ref, [best, runner])
-    assert not runner.supported
+    assert not runner.supported and runner.why_not.startswith("fitted data: delta BIC")
+    assert best.supported and best.why_not == "" and best.block_t > workflow.SEPARATION_T
     assert r.verdict == "ambiguous" and r.effect == ["coulomb_friction", "abbe_offset"]
 
 
@@ -153,6 +155,9 @@ def test_a_heldout_gain_within_chance_is_not_support():
     assert eff.heldout_score < 0.9 * ref.heldout_score
     r = judge(held, ref, [eff])
     assert r.verdict == "unexplained" and not eff.supported
+    # The report says why: past the BIC and gain bars, it fails the block test (its t shown).
+    assert eff.why_not.startswith("held out: not consistently better") and eff.block_t < workflow.SEPARATION_T
+    assert f"t = {eff.block_t:.2g}" in eff.why_not
 
 
 def test_a_later_effect_must_beat_the_earlier_effects_other_forms():
@@ -1414,3 +1419,34 @@ def test_the_generic_way_to_tell_candidates_apart_fits_their_number_and_the_data
     assert "both effects" in generic_experiment(2, False) and "with resistance measured" in generic_experiment(2, False)
     four = generic_experiment(4, True)
     assert "the 4 candidates" in four and "resistance" not in four
+
+
+def test_the_corrected_model_runs_under_the_conditions_its_files_were_fitted_under(tmp_path):
+    """A 15 V bench diagnosed from the 10 V standard model: every fit ran at the sidecar's
+    15 V, so the corrected model is saved at 15 V (it was saved at 10 V, 6 mm off its own
+    file), renamed (no longer the preset), and re-simulated from the saved file it gives the
+    gap the diagnosis reports. Files that differ in a condition keep the model's own value,
+    and the notes and the diagnosis say so."""
+    spec = SynthSpec(ModelConfig(preset("supply-15v")), excitation="steps", duration_s=12.0, electrical=False, seed=4)
+    at_15v = replace(generate(spec)[0], path="bench15.csv")
+    assert at_15v.conditions["supply_voltage_v"] == 15.0
+    result = workflow.diagnose([at_15v], [], ModelConfig(), effects=[], max_rounds=1, threads=1)
+    model = result.corrected_model
+    assert model.actuator.driver.supply_voltage_v == 15.0
+    assert result.conditions == {"supply_voltage_v": 15.0, "pwm_frequency_hz": 500.0}
+    assert "supply_voltage_v = 15" in model.notes
+    assert model.actuator.name == "standard-diagnosed" and "corrected by sma-gym diagnose" in model.actuator.description
+    saved = ModelConfig.load(model.save(tmp_path / "corrected_model.json"))
+    bare = replace(at_15v, conditions={})  # the file without its sidecar: the saved model alone
+    data = fitting.prepare(bare, workflow.CONTROL_PERIOD_S)
+    simulated = fitting.simulate([saved], [0.0], data, workflow.CONTROL_PERIOD_S)["position"][:, 0]
+    rms = math.sqrt(np.mean((simulated - bare.position) ** 2))
+    reported = result.gap_by_file["corrected"]["fit"]["bench15.csv"]["position"]
+    assert rms < 2.0 * reported + 1e-4, (rms, reported)
+
+    at_10v = replace(generate(replace(spec, model=ModelConfig(), seed=5))[0], path="bench10.csv")
+    both = workflow.diagnose([at_15v, at_10v], [], ModelConfig(), effects=[], max_rounds=1, threads=1)
+    assert both.corrected_model.actuator.driver.supply_voltage_v == 10.0  # the model's own
+    assert both.differing_conditions == {"supply_voltage_v": {"bench15.csv": 15.0, "bench10.csv": 10.0}}
+    assert "the files differ in supply_voltage_v (bench15.csv 15, bench10.csv 10)" in both.corrected_model.notes
+    assert both.conditions == {"pwm_frequency_hz": 500.0}

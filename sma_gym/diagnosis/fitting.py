@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -269,19 +269,42 @@ parameter it sets."""
 
 def model_for_trace(model: ModelConfig, trace: MeasuredTrace) -> ModelConfig:
     """Apply the trace's sidecar conditions (supply, diameter, PWM, ambient) to a model."""
-    changes = {path: trace.conditions[key] for key, path in SIDECAR_PARAMETERS.items() if key in trace.conditions}
+    return with_conditions(model, {key: trace.conditions[key] for key in SIDECAR_PARAMETERS if key in trace.conditions})
+
+
+def shared_conditions(traces: Sequence[MeasuredTrace]) -> tuple[dict[str, float], dict[str, list[float | None]]]:
+    """The sidecar conditions of ``traces``: those every trace gives with one value (the
+    conditions the actuator ran under in all of them), and those the traces give with
+    different values or only some give ({key: each trace's value, None where not given})."""
+    shared: dict[str, float] = {}
+    differing: dict[str, list[float | None]] = {}
+    for key in SIDECAR_PARAMETERS:
+        values = [t.conditions.get(key) for t in traces]
+        if all(v is None for v in values):
+            continue
+        if None not in values and len(set(values)) == 1:
+            shared[key] = float(values[0])  # type: ignore[arg-type]
+        else:
+            differing[key] = values
+    return shared, differing
+
+
+def with_conditions(model: ModelConfig, conditions: Mapping[str, float]) -> ModelConfig:
+    """``model`` with sidecar ``conditions`` ({key of ``SIDECAR_PARAMETERS``: value}) set."""
+    changes = {SIDECAR_PARAMETERS[key]: value for key, value in conditions.items()}
     return model.with_actuator(**changes) if changes else model
 
 
 def assumed_conditions(model: ModelConfig, trace: MeasuredTrace) -> dict[str, float]:
     """The conditions the trace's sidecar does not give, as ``model`` sets them (what a
     diagnosis of the trace assumes)."""
-    assumed = {}
-    for key, path in SIDECAR_PARAMETERS.items():
-        if key not in trace.conditions:
-            group, name = path.split(".")
-            assumed[key] = float(getattr(getattr(model.actuator, group), name))
-    return assumed
+    return {key: condition_value(model, key) for key in SIDECAR_PARAMETERS if key not in trace.conditions}
+
+
+def condition_value(model: ModelConfig, key: str) -> float:
+    """The value ``model`` gives the sidecar condition ``key`` (of ``SIDECAR_PARAMETERS``)."""
+    group, name = SIDECAR_PARAMETERS[key].split(".")
+    return float(getattr(getattr(model.actuator, group), name))
 
 
 def simulate(

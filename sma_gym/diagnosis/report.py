@@ -16,7 +16,15 @@ import numpy as np
 from sma_gym._io import write_json, write_text
 from sma_gym.data.measured import MeasuredTrace
 from sma_gym.diagnosis import fitting
-from sma_gym.diagnosis.workflow import CONTROL_PERIOD_S, Diagnosis
+from sma_gym.diagnosis.workflow import (
+    BIC_THRESHOLD,
+    CONTROL_PERIOD_S,
+    HELDOUT_GAIN,
+    LATER_ROUND_GAIN,
+    SEPARATION_BLOCKS,
+    SEPARATION_T,
+    Diagnosis,
+)
 from sma_gym.model import ModelConfig
 from sma_gym.plotting import new_figure, save
 from sma_gym.provenance import provenance
@@ -77,6 +85,20 @@ def write_report(
             else ""
         )
         + (
+            " It runs under the files' conditions ("
+            + ", ".join(f"{k} {v:g}" for k, v in result.conditions.items())
+            + ")."
+            if result.conditions
+            else ""
+        )
+        + "".join(
+            f" The files differ in {k} ("
+            + ", ".join(f"{name} {'not given' if v is None else f'{v:g}'}" for name, v in values.items())
+            + f"): each was fitted under its own, and the model keeps {fitting.condition_value(result.corrected_model, k):g};"
+            " set it for the conditions you simulate."
+            for k, values in result.differing_conditions.items()
+        )
+        + (
             " It is the nominal model as given: refitted, its parameters predicted the held-out data worse"
             " (see the gap table), so no refit is kept."
             if result.kept_as_given
@@ -117,16 +139,28 @@ def write_report(
         "",
         "## Candidates",
         "",
-        "Supported = BIC lower than the nominal refit's by more than 10 and held-out error lower by at least 10 %.",
+        f"Round 1's candidates. Supported = not inert (its effect did not end off), BIC lower than the nominal "
+        f"refit's by more than {BIC_THRESHOLD:g}, held-out error lower by at least {HELDOUT_GAIN:.0%}, better "
+        f"held out than the model as given, and better consistently along the held-out data (t >= "
+        f"{SEPARATION_T:g} over {SEPARATION_BLOCKS} blocks); later rounds ask a gain of {LATER_ROUND_GAIN:.0%}. "
+        "A candidate that is not supported can still be a rival of the best (docs/diagnosis.md, Verdict rules).",
         "",
-        "| candidate | delta BIC | held-out normalised RMS | held-out gain | supported |",
+        "| candidate | delta BIC | held-out normalised RMS | held-out gain | supported, or why not |",
         "|---|---|---|---|---|",
     ]
     for c in result.candidates:
+        why = "yes" if c["supported"] else c.get("not_supported_because", "")
         lines.append(
-            f"| {c['name']} | {c['delta_bic']:+.1f} | {c['heldout_normalised_rms']:.3g} | {c['heldout_gain'] * 100:+.1f} % | {'yes' if c['supported'] else ''} |"
+            f"| {c['name']} | {c['delta_bic']:+.1f} | {c['heldout_normalised_rms']:.3g} | {c['heldout_gain'] * 100:+.1f} % | {why} |"
         )
-    lines += ["", "## Where the nominal model goes wrong", ""]
+    lines += [
+        "",
+        "## Where the nominal model goes wrong",
+        "",
+        "The regimes overlap (a sample can be heating, in the transformation's onset and in a temperature band at "
+        "once), so their shares add up to more than 100 %.",
+        "",
+    ]
     for output, regimes in result.where["most_concentrated"].items():
         lines.append(f"- {output}: most concentrated in {', '.join(regimes)}")
     for entry in result.where["files"]:
@@ -201,6 +235,14 @@ def _round_lines(result: Diagnosis) -> list[str]:
             f"| {r['round']} | {r['verdict']} | {effect or ''} | {r['nominal_refit_heldout_normalised_rms']:.3g} -> "
             f"{r['heldout_normalised_rms']:.3g} | {format_value(position, 'position')} | {bounds} |"
         )
+    if any(r["parameters_at_bounds"] for r in result.rounds):
+        lines += [
+            "",
+            "A parameter at a bound is a finding, not a fit to trust: the data ask for more than the bound allows. "
+            "Check the datasheet value it scales (transformation temperatures given at another stress, a "
+            "convection law of another mounting), or the effect it may stand in for, and diagnose again from a "
+            'nominal model with that value corrected (docs/diagnosis.md, Real bench: "Bounds are findings").',
+        ]
     return lines + [""]
 
 
@@ -312,7 +354,7 @@ def _plot_regimes(result: Diagnosis, path: Path) -> Path:
     ax.bar(idx - 0.2, np.array(frac) * 100, 0.4, label="share of samples")
     ax.bar(idx + 0.2, np.array(share) * 100, 0.4, label="share of squared position error")
     ax.set_xticks(idx, labels, rotation=35, ha="right", fontsize=7)
-    ax.set(ylabel="%", title="Where the nominal model's position error concentrates")
+    ax.set(ylabel="%", title="Where the nominal model's position error concentrates (regimes overlap)")
     ax.legend(fontsize=8)
     return save(fig, path)
 

@@ -22,6 +22,7 @@ and diagnosed on a held-out file with a different excitation.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -363,4 +364,10 @@ def main(args) -> int:
     named = args.model if args.model in model_names() else None
     csv_path, labels_path = write(spec, Path(args.out), overwrite=args.overwrite, model_name=named)
     print(f"wrote {csv_path} (+ sidecar) and labels {labels_path}")
+    if named is None:
+        print(
+            f"sma-gym synth: note: the sidecar names no model ({args.model!r} is a file, not a preset or twin name): "
+            f"diagnose {csv_path} with --model {args.model}, or it starts from the standard wire",
+            file=sys.stderr,
+        )
     return 0

@@ -257,6 +257,11 @@ class Candidate:
     heldout_gain: float = 0.0
     supported: bool = False
     inert: bool = False  # the effect ended "off": its fit is the nominal refit's
+    why_not: str = ""
+    """The first rule a candidate that is not supported fails (empty when supported)."""
+    block_t: float | None = None
+    """t statistic of its held-out preference over the reference, across the held-out
+    blocks (``_block_t``); None where not computed (a candidate short of an earlier bar)."""
 
 
 @dataclass
@@ -283,6 +288,14 @@ class Diagnosis:
     carried: str | None = None
     """The candidate the corrected model also carries when the last round was ambiguous (the
     best held out of its rivals; not among ``effects_found``), else None."""
+    conditions: dict[str, float] = field(default_factory=dict)
+    """The sidecar conditions every file gives alike (supply, diameter, PWM, ambient), which
+    the corrected model carries: the conditions its fits ran under."""
+    differing_conditions: dict[str, dict[str, float | None]] = field(default_factory=dict)
+    """The conditions the files give differently or only some give ({key: {file: value or
+    None}}): each file was fitted under its own, and the corrected model keeps its own value."""
+    held_out_files: list[str] = field(default_factory=list)
+    """The held-out files; empty when the last part of each fitted file was held out."""
     kept_as_given: bool = False
     """True when nothing was found and the nominal refit predicted the held-out data worse
     than the model as given: the corrected model is then the model as given, unrefitted (a
@@ -303,6 +316,9 @@ class Diagnosis:
             "gap_after": self.gap_after,
             "gap_nominal_refit": self.gap_nominal_refit,
             "held_out": self.held_out,
+            "held_out_files": self.held_out_files,
+            "conditions": self.conditions,
+            "differing_conditions": self.differing_conditions,
             "separating_experiment": self.separating_experiment,
             "noise": self.noise,
             "candidates": self.candidates,
@@ -367,7 +383,9 @@ def diagnose(
     if heldout_traces:
         fit_data = [fitting.prepare(t, control_period_s) for t in fit_traces]
         held_data = [fitting.prepare(t, control_period_s) for t in heldout_traces]
-        held_note = "the files " + ", ".join(t.name for t in heldout_traces)
+        held_note = ("the file " if len(heldout_traces) == 1 else "the files ") + ", ".join(
+            t.name for t in heldout_traces
+        )
     else:
         fit_data, held_data = [], []
         for t in fit_traces:
@@ -546,7 +564,8 @@ def diagnose(
     if carried is not None:
         rivals = last.effect if isinstance(last.effect, str) else " or ".join(last.effect or [])
         notes += f"; carries {carried}, the best held out of round {len(rounds)}'s ambiguous {rivals}"
-    corrected = ModelConfig(current.actuator, current.effects, notes=notes)
+    files = [*fit_traces, *heldout_traces]
+    corrected, shared, differing = _corrected_model(nominal, current, notes, files)
 
     say(f"verdict {verdict}; measuring the gap before and after")
     gap_before = _gaps(nominal, 0.0, fit_data, held_data, control_period_s)
@@ -581,7 +600,41 @@ def diagnose(
         gap_by_file=by_file,
         carried=carried,
         kept_as_given=kept_as_given,
+        conditions=shared,
+        differing_conditions={k: {t.name: v for t, v in zip(files, vs)} for k, vs in differing.items()},
+        held_out_files=[t.name for t in heldout_traces],
     )
+
+
+def _corrected_model(
+    nominal: ModelConfig, current: ModelConfig, notes: str, files: Sequence[MeasuredTrace]
+) -> tuple[ModelConfig, dict[str, float], dict[str, list[float | None]]]:
+    """The model the rounds leave, under the files' shared conditions and named as corrected;
+    with those conditions and the ones the files differ in (``fitting.shared_conditions``)."""
+    # Every file ran the actuator under the conditions of its sidecar (``fitting.model_for_trace``),
+    # so the model the fits describe is the corrected one under those conditions: it carries
+    # those all files share (a 15 V bench's model saved at 10 V was 6 mm off its own file).
+    shared, differing = fitting.shared_conditions(files)
+    actuator = fitting.with_conditions(ModelConfig(current.actuator), shared).actuator
+    if shared:
+        notes += "; the files' conditions: " + ", ".join(f"{k} = {v:g}" for k, v in shared.items())
+    for key, values in differing.items():
+        given = ", ".join(f"{t.name} " + ("not given" if v is None else f"{v:g}") for t, v in zip(files, values))
+        kept = fitting.condition_value(ModelConfig(actuator), key)
+        notes += (
+            f"; the files differ in {key} ({given}): each was fitted at its own, the model keeps {kept:g} "
+            "(set it for the conditions you simulate)"
+        )
+    if actuator != nominal.actuator or current.effects != nominal.effects:
+        # A corrected model is no longer the preset it started from: a file or a table that
+        # carried the preset's name (and "before identification") would say it is.
+        actuator = replace(
+            actuator,
+            name=f"{nominal.actuator.name}-diagnosed",
+            description=f"{nominal.actuator.name!r} corrected by sma-gym diagnose (the notes say how). "
+            + nominal.actuator.description,
+        )
+    return ModelConfig(actuator, current.effects, notes=notes), shared, differing
 
 
 @dataclass
@@ -1155,6 +1208,17 @@ def _judge(
             and c.heldout_gain >= heldout_gain
             and c.heldout_score < as_given
         )
+        c.block_t = None
+        if c.inert:
+            c.why_not = "inert: its effect ended off"
+        elif c.delta_bic >= -BIC_THRESHOLD:
+            c.why_not = f"fitted data: delta BIC not below -{BIC_THRESHOLD:g}"
+        elif c.heldout_gain < heldout_gain:
+            c.why_not = f"held out: gain under {heldout_gain:.0%}"
+        elif c.heldout_score >= as_given:
+            c.why_not = "held out: no better than the model as given, unrefitted"
+        else:
+            c.why_not = ""
     # The reference that decides "none" / "unexplained": the best bar on held-out data.
     floor = min(bars, key=lambda b: b.heldout_score)
     if floor.heldout_score <= NOISE_STOP:
@@ -1162,9 +1226,20 @@ def _judge(
         # is nothing left for an effect to explain (the same rule that ends the rounds).
         return _Round("none", None, ref, ref, candidates, None, as_given)
     for c in candidates[1:]:
-        if c.supported and _indistinguishable(c, floor, held, margin=0.0):
+        if not c.supported:
+            continue
+        # (``_indistinguishable(c, floor, held, margin=0.0)``, its t statistic kept for the report)
+        if floor.heldout_score <= c.heldout_score:
+            c.supported, c.why_not = False, "held out: no better than the reference"
+            continue
+        c.block_t = _block_t(c, floor, held)
+        if c.block_t is None or c.block_t < SEPARATION_T:
             # Its held-out gain is within what one held-out file's smooth errors allow.
             c.supported = False
+            shown = "too few samples differ" if c.block_t is None else f"t = {c.block_t:.2g}"
+            c.why_not = (
+                f"held out: not consistently better over the {SEPARATION_BLOCKS} blocks ({shown}, bar {SEPARATION_T:g})"
+            )
     supported = sorted([c for c in candidates[1:] if c.supported], key=lambda c: c.heldout_score)
     if not supported:
         verdict = "unexplained" if _noise_ratio(floor, held) > STRUCTURED_RATIO else "none"
@@ -1358,6 +1433,14 @@ def _indistinguishable(
     consistent tenfold improvement everywhere else."""
     if other.heldout_score <= best.heldout_score * (1.0 + margin):
         return True
+    t = _block_t(best, other, held)
+    return t is None or t < SEPARATION_T
+
+
+def _block_t(best: Candidate, other: Candidate, held: fitting.Problem) -> float | None:
+    """How consistently ``best`` predicts the held-out data better than ``other``: the mean
+    over ``SEPARATION_BLOCKS`` blocks of the log ratio of their mean squared residuals, in
+    standard errors (see ``_indistinguishable``); None when too few samples tell them apart."""
     rb = held.residual_matrix(best.fit.parameters, [best.fit.values])[:, 0]
     ro = held.residual_matrix(other.fit.parameters, [other.fit.values])[:, 0]
     # Outputs neither model changes (a constant supply) tell nothing; nor do samples both
@@ -1369,7 +1452,7 @@ def _indistinguishable(
     differs = (rb != ro) & ((np.abs(rb) > NOISE_STOP) | (np.abs(ro) > NOISE_STOP))
     rb, ro = rb[differs], ro[differs]
     if rb.size < 2 * SEPARATION_BLOCKS:
-        return True
+        return None
     logs = np.array(
         [
             math.log(max(float(np.mean(o**2)), 1e-300) / max(float(np.mean(b**2)), 1e-300))
@@ -1378,8 +1461,8 @@ def _indistinguishable(
     )
     mean, spread = float(np.mean(logs)), float(np.std(logs, ddof=1))
     if spread == 0.0:
-        return mean <= 0.0
-    return mean / (spread / math.sqrt(SEPARATION_BLOCKS)) < SEPARATION_T
+        return math.copysign(math.inf, mean) if mean != 0.0 else 0.0
+    return mean / (spread / math.sqrt(SEPARATION_BLOCKS))
 
 
 def _at_bounds(fit: fitting.Fit) -> list[str]:
@@ -1587,6 +1670,10 @@ def _describe(c: Candidate) -> dict[str, Any]:
         "heldout_normalised_rms": c.heldout_score,
         "heldout_gain": c.heldout_gain,
         "supported": c.supported,
+        "not_supported_because": c.why_not,
+        "heldout_block_t": (
+            c.block_t if c.block_t is None or math.isfinite(c.block_t) else ("inf" if c.block_t > 0 else "-inf")
+        ),
         "inert": c.inert,
         "form": _form_of(c),
         "fit_converged": c.fit.success,
