@@ -119,7 +119,13 @@ def _evaluate_arguments(p: argparse.ArgumentParser) -> None:
 
 def _evaluate(args: argparse.Namespace) -> int:
     experiments = [e.strip() for e in args.experiments.split(",") if e.strip()]
-    baselines = [b.strip() for b in args.baselines.split(",") if b.strip()] if args.baselines else None
+    baselines = None if args.baselines is None else [b.strip() for b in args.baselines.split(",") if b.strip()]
+    if baselines == []:
+        # ("" used to run all ten, "," none at all: an empty report that looked like success)
+        raise ValueError(
+            f"--baselines {args.baselines!r}: expected a comma-separated list of controllers, e.g. 'PID,VSC3 + FF' "
+            "(leave the option out for all ten)"
+        )
     # Everything checked before the (long) evaluation starts.
     for e in experiments:
         if e not in evaluation.EXPERIMENTS:

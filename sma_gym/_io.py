@@ -320,15 +320,30 @@ def read_text(path: str | Path, max_bytes: int, what: str = "file") -> str:
         ) from None
 
 
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """``json.loads`` ``object_pairs_hook``: a key given twice in one object is an error (the
+    last would silently win, e.g. a sidecar's second ``supply_voltage_v``)."""
+    seen: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in seen:
+            raise ValueError(f"the key {key!r} appears twice in one object; expected each once")
+        seen[key] = value
+    return seen
+
+
 def read_json_object(path: str | Path, what: str = "file", max_bytes: int = MAX_JSON_BYTES) -> dict[str, Any]:
     """A JSON object (``{...}``) from ``path``; anything else is a ``ValueError`` naming the file."""
     text = read_text(path, max_bytes, what)
     try:
-        data = json.loads(text)
+        data = json.loads(text, object_pairs_hook=_unique_keys)
     except json.JSONDecodeError as err:
         raise ValueError(
             f"{what} {str(path)!r}: not valid JSON (line {err.lineno}, column {err.colno}: {err.msg})"
         ) from None
+    except RecursionError:
+        raise ValueError(f"{what} {str(path)!r}: nested too deeply to be read as JSON") from None
+    except ValueError as err:  # e.g. an integer past Python's 4300-digit conversion limit
+        raise ValueError(f"{what} {str(path)!r}: not readable as JSON ({err})") from None
     if not isinstance(data, dict):
         raise ValueError(f"{what} {str(path)!r}: expected a JSON object {{...}}, got a JSON {type(data).__name__}")
     return data

@@ -15,7 +15,11 @@ import numpy as np
 
 
 def _fmt(value: Any) -> str:
-    return repr(value)
+    """``repr(value)``, shortened: a 400-digit integer from a file is shown by its size."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value).bit_length() > 256:
+        return f"an integer of about {int(abs(value).bit_length() * 0.30103)} digits"
+    text = repr(value)
+    return text if len(text) <= 200 else text[:197] + "..."
 
 
 def require_finite(name: str, value: Any, unit: str = "") -> float:
@@ -30,7 +34,8 @@ def require_finite(name: str, value: Any, unit: str = "") -> float:
         raise ValueError(f"{name} = {_fmt(value)}: expected a finite number{_unit(unit)}, not a boolean")
     try:
         number = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
+        # (OverflowError: an integer past float's range, e.g. 10**400 from a JSON file)
         raise ValueError(f"{name} = {_fmt(value)}: expected a finite number{_unit(unit)}") from None
     if not math.isfinite(number):
         raise ValueError(f"{name} = {_fmt(value)}: expected a finite number{_unit(unit)}")

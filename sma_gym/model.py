@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from sma_gym._io import read_json_object, write_json
-from sma_gym.effects import EffectSet, EffectSetting
+from sma_gym.effects import EffectSet, EffectSetting, get_effect
 from sma_gym.models import twin_names, twin_path
 from sma_gym.params import ActuatorParams, preset, preset_names
 
@@ -95,6 +95,15 @@ class ModelConfig:
                 kind = type(data[key]).__name__
                 raise ValueError(f"{source}: {key!r} is a JSON {kind}: expected a JSON object {{name: {{...}}}}")
         try:
+            for name, value in data.get("effects", {}).items():
+                nested = isinstance(value, Mapping) and ("parameters" in value or "form" in value)
+                given = value.get("parameters", {}) if nested else value
+                if isinstance(given, Mapping) and not given:
+                    # An effect listed with no values loaded as off: the file said "on", the model ran without it.
+                    raise ValueError(
+                        f"effect {name!r} gives no parameter values: expected its parameters "
+                        f"{[p.name for p in get_effect(name).parameters]} (or leave the effect out)"
+                    )
             actuator = ActuatorParams.from_dict(data.get("actuator", {}))
             effects = EffectSet.of(data.get("effects", {}))
         except (TypeError, ValueError) as err:

@@ -1026,3 +1026,19 @@ def preset(name: str) -> ActuatorParams:
     except KeyError:
         raise ValueError(f"preset = {name!r}: expected one of {', '.join(map(repr, _PRESETS))}") from None
     return factory()
+
+
+def parameter_bound(path: str) -> Bound:
+    """The physical range of the actuator parameter ``"part.field"`` (its class's ``_BOUNDS``
+    row), for code that checks a value before it becomes a parameter (a sidecar's supply)."""
+    part, _, name = path.partition(".")
+    if part not in _PARTS:
+        raise ValueError(f"parameter {path!r}: expected 'part.field' with part one of {', '.join(_PARTS)}")
+    for bound in _PARTS[part]._BOUNDS:
+        if name in bound.fields:
+            return bound
+    raise ValueError(f"parameter {path!r}: no physical range is defined for it")
+
+
+_PARTS = {"wire": Wire, "mechanism": Mechanism, "convection": Convection, "driver": Driver, "sensors": Sensors}
+"""The parameter groups of :class:`ActuatorParams`, by field name."""

@@ -1619,3 +1619,107 @@ def test_a_vector_infos_masks_are_its_own_so_editing_one_changes_no_later_reset(
     _, _, _, _, later = v.step(np.ones((3, 1), dtype=np.float32))
     assert later["_time_s"].all()
     assert v.reset()[1]["time_s"].tolist() == [0.0, 0.0, 0.0]
+    # The multiplexed bank's own vector env: one array for every mask until 2026-12-06.
+    bank = gym.make_vec("sma_gym:SMAMultiplexed-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    _, info = bank.reset(seed=0)
+    masks = [value for key, value in info.items() if key.startswith("_")]
+    assert len({id(m) for m in masks}) == len(masks) > 1
+    info["_duty"][0] = False
+    assert info["_position_m"].all()
+
+
+def test_numbers_past_floats_range_nesting_and_repeated_keys_in_files_are_refused_by_name(tmp_path):
+    """A 400-digit integer in a model file or a kwarg gave a raw OverflowError, a deeply nested
+    file a RecursionError, and a key given twice silently took the last value."""
+    from sma_gym.model import ModelConfig
+
+    data = ModelConfig().to_dict()
+    data["actuator"]["convection"]["h0_w_m2_k"] = 10**400
+    (tmp_path / "big.json").write_text(json.dumps(data))
+    with pytest.raises(ValueError, match=r"big\.json.*h0_w_m2_k = an integer of about 400 digits"):
+        ModelConfig.load(tmp_path / "big.json")
+    with pytest.raises(ValueError, match="control_period_s = an integer of about 400 digits"):
+        gym.make("sma_gym:SMATracking-v0", control_period_s=10**400)
+    (tmp_path / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(ValueError, match=r"deep\.json.*nested too deeply"):
+        ModelConfig.load(tmp_path / "deep.json")
+    (tmp_path / "twice.json").write_text('{"format": "sma-gym-model", "format": "sma-gym-model"}')
+    with pytest.raises(ValueError, match=r"twice\.json.*'format' appears twice"):
+        ModelConfig.load(tmp_path / "twice.json")
+
+
+def test_an_effect_listed_without_values_in_a_model_file_is_refused_not_switched_off(tmp_path):
+    from sma_gym.model import ModelConfig
+
+    data = ModelConfig().to_dict()
+    for listed in ({"form": "default"}, {"parameters": {}}, {}):
+        data["effects"] = {"transformation_spread": listed}
+        (tmp_path / "m.json").write_text(json.dumps(data))
+        with pytest.raises(
+            ValueError, match=r"m\.json': effect 'transformation_spread' gives no parameter values.*spread_k"
+        ):
+            ModelConfig.load(tmp_path / "m.json")
+    data["effects"] = {"transformation_spread": {"parameters": {"spread_k": 5.0}, "form": "default"}}
+    (tmp_path / "m.json").write_text(json.dumps(data))
+    assert ModelConfig.load(tmp_path / "m.json").effects.value("transformation_spread", "spread_k") == 5.0
+
+
+def test_a_sidecar_condition_is_checked_against_the_range_of_the_parameter_it_sets(tmp_path):
+    """The loader accepted a 4 mm wire and a 0 V supply (its own ranges), which the model then
+    refused without naming the sidecar."""
+    from sma_gym.data import load_trace
+    from sma_gym.data.measured import MeasuredDataError
+    from sma_gym.params import parameter_bound
+
+    (tmp_path / "r.csv").write_text("t,duty,position\n" + "".join(f"{k * 0.01},0,0\n" for k in range(30)))
+    for given, message in (
+        (
+            {"wire_diameter_m": 0.004},
+            r"r\.csv\.json: wire_diameter_m = 0\.004: expected a value in \[2\.5e-05, 0\.002\]",
+        ),
+        ({"supply_voltage_v": 0}, r"supply_voltage_v = 0: expected a value in \(0, 60\]"),
+        ({"supply_voltage_v": True}, "not a boolean"),
+        ({"supply_voltage_v": "10"}, "expected a number"),
+    ):
+        (tmp_path / "r.csv.json").write_text(json.dumps(given))
+        with pytest.raises(MeasuredDataError, match=message):
+            load_trace(tmp_path / "r.csv")
+    assert parameter_bound("wire.diameter_m").upper == 2e-3
+    (tmp_path / "r.csv.json").write_text(json.dumps({"supply_voltage_v": 12}))
+    assert load_trace(tmp_path / "r.csv").conditions == {"supply_voltage_v": 12.0}
+
+
+def test_small_options_given_wrong_are_refused_and_a_finished_seed_is_not_called_stopped(tmp_path, capsys):
+    from sma_gym.cli import main
+    from sma_gym.envs.sb3 import SB3VecEnv
+    from sma_gym_agents.training.config import build_parser
+    from sma_gym_agents.training.sweep import seed_status
+
+    for empty in ("", ","):  # "" ran all ten controllers, "," none (an empty report)
+        assert main(["evaluate", "--baselines", empty, "--experiments", "6.1"]) == 2
+        assert "--baselines" in capsys.readouterr().err
+    for effect, message in (
+        ("transformation_spread:spread_k=5,spread_k=6", "spread_k is given twice"),
+        ("none:x=1", "'none' hides no effect"),
+    ):
+        assert main(["synth", "--out", str(tmp_path / "s.csv"), "--effect", effect]) == 2
+        assert message in capsys.readouterr().err
+    with pytest.raises(ValueError, match="expected a Gymnasium vector env"):
+        SB3VecEnv(None)
+    assert build_parser().parse_args(["--env", "sma_gym:SMATracking-v0"]).env == "SMATracking-v0"  # env.spec.id
+    (tmp_path / "seed-1").mkdir()
+    assert seed_status(-15, tmp_path, 1).startswith("stopped")
+    (tmp_path / "seed-1" / "goals.json").write_text("{}")
+    assert seed_status(-15, tmp_path, 1) == "finished before the stop (kept)"
+    assert seed_status(0, tmp_path, 1) == "done" and seed_status(1, tmp_path, 1).startswith("FAILED")
+
+
+def test_overwrite_removes_nothing_of_a_folder_whose_diagnosis_json_is_not_a_diagnosis(tmp_path):
+    """A diagnosis.json of the user's made the name patterns of old reports delete their PNGs."""
+    from sma_gym.diagnosis.report import previous_outputs
+
+    (tmp_path / "diagnosis.json").write_text('{"x": 1}')
+    (tmp_path / "fit_2_photo.png").write_text("mine")
+    assert previous_outputs(tmp_path) == []
+    (tmp_path / "diagnosis.json").write_text('{"verdict": "none", "gap_before": {}, "gap_after": {}}')
+    assert tmp_path / "fit_2_photo.png" in previous_outputs(tmp_path)  # an old report, without its list

@@ -64,7 +64,14 @@ def test_diagnose_says_which_conditions_no_sidecar_gives_and_what_it_assumes(tmp
     notes = [line for line in capsys.readouterr().err.splitlines() if "taken from the model" in line]
     assert len(notes) == 1 and "run.csv, bare.csv" in notes[0] and "'bench-0.5mm-ht-datasheet'" in notes[0]
     assert f"supply_voltage_v = {bench.actuator.driver.supply_voltage_v:g}" in notes[0]
-    (tmp_path / "run.csv.json").write_text(json.dumps({key: lo for key, (lo, _) in SIDECAR_KEYS.items()}))
+    every = {
+        "supply_voltage_v": 24.0,
+        "wire_diameter_m": 5e-4,
+        "pwm_frequency_hz": 1000.0,
+        "ambient_temperature_c": 20.0,
+    }
+    assert set(every) == set(SIDECAR_KEYS)
+    (tmp_path / "run.csv.json").write_text(json.dumps(every))
     assert main([*args[:2], *args[3:], "--out", str(tmp_path / "d")]) == 2
     assert "taken from the model" not in capsys.readouterr().err
 

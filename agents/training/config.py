@@ -217,7 +217,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="train.py", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    p.add_argument("--env", default="SMATracking-v0", help="env id (default SMATracking-v0)")
+    p.add_argument(
+        "--env",
+        default="SMATracking-v0",
+        type=lambda text: text.removeprefix("sma_gym:"),  # env.spec.id's form is the same id
+        help="env id, with or without the 'sma_gym:' of env.spec.id (default SMATracking-v0)",
+    )
     p.add_argument(
         "--algo",
         choices=ALGOS,
@@ -266,7 +271,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--quick",
         action="store_true",
-        help=f"tiny budget ({QUICK_TIMESTEPS} steps) and a short evaluation, for smoke tests",
+        help=f"tiny budget ({QUICK_TIMESTEPS} steps, rounded up to whole steps of all --n-envs envs and, for PPO, to "
+        "whole rollouts: 2048 with the file's settings) and a short evaluation, for smoke tests",
     )
     p.add_argument(
         "--threads",

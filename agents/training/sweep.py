@@ -367,13 +367,7 @@ def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int
             # Only with --resume: an interrupted or failed run of this seed, started over.
             argv.append("--overwrite")
         code = _run_seed_process(argv, out / "logs" / f"seed-{seed}.log", run.threads, children)
-        if code == 0:
-            status = "done"
-        elif code in STOPPED_CODES:
-            status = f"stopped (exit {code}: interrupted, not failed; --resume runs it again)"
-        else:
-            status = f"FAILED (exit {code}, see logs/seed-{seed}.log)"
-        print(f"train.py: seed {seed} {status}", flush=True)
+        print(f"train.py: seed {seed} {seed_status(code, out, seed)}", flush=True)
         return code
 
     # Threads only wait on the child processes, which do the work.
@@ -476,6 +470,19 @@ def check_sweep_args(args: argparse.Namespace) -> None:
 STOPPED_CODES = (130, 143, -2, -15)
 """A seed's exit codes when it was stopped (Ctrl-C, SIGTERM: the shell's 128 + n, or the
 negative signal number), not failed: the sweep's own interrupt reaches its children too."""
+
+
+def seed_status(code: int, out: Path, seed: int) -> str:
+    """What the sweep says of a seed's run that ended with exit ``code``."""
+    if code == 0:
+        return "done"
+    if code in STOPPED_CODES and (out / f"seed-{seed}" / "goals.json").is_file():
+        # The stop reached it after it had written its results, which finished_note and
+        # --resume count as finished ("stopped ... --resume runs it again" was not true).
+        return "finished before the stop (kept)"
+    if code in STOPPED_CODES:
+        return f"stopped (exit {code}: interrupted, not failed; --resume runs it again)"
+    return f"FAILED (exit {code}, see logs/seed-{seed}.log)"
 
 
 def finished_note(out: Path) -> str:

@@ -47,16 +47,21 @@ from typing import Any
 import numpy as np
 
 from sma_gym._io import read_json_object, read_text, write_json, write_text
+from sma_gym._validation import require_range
+from sma_gym.params import parameter_bound
 
 REQUIRED = ("t", "duty", "position")
 OPTIONAL = ("resistance", "current", "supply_voltage", "force")
 KNOWN_COLUMNS = REQUIRED + OPTIONAL
 SIDECAR_KEYS = {
-    "supply_voltage_v": (0.0, 60.0),
-    "wire_diameter_m": (1e-5, 5e-3),
-    "pwm_frequency_hz": (1.0, 1e5),
-    "ambient_temperature_c": (-60.0, 200.0),
+    "supply_voltage_v": "driver.supply_voltage_v",
+    "wire_diameter_m": "wire.diameter_m",
+    "pwm_frequency_hz": "driver.pwm_frequency_hz",
+    "ambient_temperature_c": "convection.ambient_temperature_c",
 }
+"""Each numeric sidecar condition and the actuator parameter it sets; its range is that
+parameter's (:func:`sma_gym.params.parameter_bound`), so a sidecar the loader accepts is one
+the model accepts (the loader's own ranges let a 4 mm wire through, refused later unnamed)."""
 SIDECAR_TEXT_KEYS = ("model", "notes", "source")
 
 MAX_PROBLEMS_SHOWN = 20
@@ -344,14 +349,6 @@ def _value_problems(columns: dict[str, np.ndarray], where: str, reported: dict[s
     return problems
 
 
-def _as_float(value: int | float) -> float:
-    # A JSON integer may be too large for a float (OverflowError): it is out of any range.
-    try:
-        return float(value)
-    except OverflowError:
-        return math.inf
-
-
 def _read_sidecar(p: Path) -> tuple[dict[str, Any], list[str]]:
     """The sidecar's conditions (if the file has one) and the problems found in it."""
     problems: list[str] = []
@@ -365,11 +362,15 @@ def _read_sidecar(p: Path) -> tuple[dict[str, Any], list[str]]:
             raw = {}
         for key, value in raw.items():
             if key in SIDECAR_KEYS:
-                lo, hi = SIDECAR_KEYS[key]
-                if isinstance(value, bool) or not isinstance(value, (int, float)) or not (lo <= _as_float(value) <= hi):
-                    problems.append(f"{side}:{key}: {value!r}: expected a number in [{lo:g}, {hi:g}]")
-                else:
-                    conditions[key] = _as_float(value)
+                b = parameter_bound(SIDECAR_KEYS[key])
+                try:
+                    if not isinstance(value, (int, float)):
+                        raise ValueError(f"{key} = {value!r}: expected a number")
+                    conditions[key] = require_range(
+                        key, value, b.lower, b.upper, b.unit, lower_open=b.lower_open, upper_open=b.upper_open
+                    )
+                except ValueError as err:
+                    problems.append(f"{side}: {err}")
             elif key in SIDECAR_TEXT_KEYS:
                 conditions[key] = str(value)
             else:

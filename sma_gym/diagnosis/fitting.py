@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sma_gym._jit import available_cores
-from sma_gym.data.measured import MeasuredTrace
+from sma_gym.data.measured import SIDECAR_KEYS, MeasuredTrace
 from sma_gym.effects import EFFECTS
 from sma_gym.model import ModelConfig
 from sma_gym.simulator import Simulator
@@ -257,14 +257,8 @@ def prepare(trace: MeasuredTrace, control_period_s: float, mask: np.ndarray | No
     return TraceData(trace, np.ascontiguousarray(duty), np.clip(steps, -1, len(duty) - 1), outputs, noise, m, rest)
 
 
-SIDECAR_PARAMETERS = {
-    "supply_voltage_v": "driver.supply_voltage_v",
-    "wire_diameter_m": "wire.diameter_m",
-    "pwm_frequency_hz": "driver.pwm_frequency_hz",
-    "ambient_temperature_c": "convection.ambient_temperature_c",
-}
-"""Each numeric sidecar condition (``sma_gym.data.measured.SIDECAR_KEYS``) and the model
-parameter it sets."""
+SIDECAR_PARAMETERS = SIDECAR_KEYS
+"""Each numeric sidecar condition and the model parameter it sets (``sma_gym.data.measured.SIDECAR_KEYS``)."""
 
 
 def model_for_trace(model: ModelConfig, trace: MeasuredTrace) -> ModelConfig:

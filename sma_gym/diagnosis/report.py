@@ -415,9 +415,14 @@ def previous_outputs(out: Path) -> list[Path]:
     if not record.is_file():
         return []
     try:
-        listed = json.loads(record.read_text()).get(RECORD_KEY)
-    except (OSError, ValueError, AttributeError):
-        listed = None
+        data = json.loads(record.read_text())
+    except (OSError, ValueError):
+        data = None
+    if not isinstance(data, dict) or not {"verdict", "gap_before", "gap_after"} <= set(data):
+        # Not a diagnosis's record (a file of the user's that shares the name): nothing here
+        # is ours to remove, least of all by a name pattern.
+        return []
+    listed = data.get(RECORD_KEY)
     if isinstance(listed, list) and all(isinstance(n, str) and Path(n).name == n for n in listed):
         return sorted(out / n for n in set(listed) | {"diagnosis.json"} if (out / n).is_file())
     return sorted({p for pattern in OUTPUT_PATTERNS for p in out.glob(pattern) if p.is_file()})

@@ -282,12 +282,16 @@ def parse_effect(text: str | None) -> tuple[str | None, dict[str, float] | None]
     if not text or text == "none":
         return None, None
     name, _, rest = text.partition(":")
+    if name == "none":
+        raise ValueError(f"--effect {text!r}: 'none' hides no effect and takes no parameters; expected 'none' alone")
     if name not in EFFECTS:
         raise ValueError(f"--effect {name!r}: expected none or one of {', '.join(EFFECTS)}")
     values: dict[str, float] = {}
     for item in filter(None, rest.split(",")):
         key, _, value = item.partition("=")
         EFFECTS[name].parameter(key)
+        if key in values:
+            raise ValueError(f"--effect {text!r}: {key} is given twice; expected each parameter once")
         try:
             values[key] = float(value)
         except ValueError:

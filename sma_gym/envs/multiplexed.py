@@ -463,7 +463,7 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
         m, n = self.num_envs, self.n
         info = {key: value.reshape(m, n) for key, value in self.task.info(self.sim, self._ref).items()}
         info["time_s"] = self.sim.time_s[::n].copy()
-        every = np.ones(m, dtype=bool)
         for key in list(info):
-            info["_" + key] = every
+            # Each mask its own array: a caller editing one must not change another.
+            info["_" + key] = np.ones(m, dtype=bool)
         return info

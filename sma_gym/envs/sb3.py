@@ -61,6 +61,11 @@ class SB3VecEnv(VecEnv):
     """Wrap a Gymnasium vector env (any autoreset mode) for stable-baselines3, with episode stats."""
 
     def __init__(self, vector_env: Any):
+        if not isinstance(getattr(vector_env, "metadata", None), dict) or not hasattr(vector_env, "num_envs"):
+            raise ValueError(
+                f"SB3VecEnv({vector_env!r}): expected a Gymnasium vector env, e.g. gymnasium.make_vec(id, num_envs, "
+                "vectorization_mode='vector_entry_point') on an sma_gym id"
+            )
         mode = vector_env.metadata.get("autoreset_mode")
         if mode not in tuple(AutoresetMode):
             raise ValueError(
