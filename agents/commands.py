@@ -13,8 +13,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from sma_gym import fidelity
-from sma_gym._io import check_output_folder, locked_folder, remove_outputs
+from sma_gym._io import check_output_folder, locked_folder, staged_outputs
 from sma_gym.cli import Command
+from sma_gym.data import find_real_data_dir
 from sma_gym.extras import MissingExtraError, extra_error, install_hint, missing
 
 try:
@@ -59,16 +60,18 @@ FIDELITY_OUTPUTS = (
     "fig9_multiplexed_rise.png",
     fidelity.BENCH_PLOT,
 )
-"""What ``sma-gym fidelity --out`` writes: what ``--overwrite`` deletes first, and nothing else."""
+"""What ``sma-gym fidelity --out`` writes (besides the list of its files, ``_io.OUTPUT_LIST``)."""
 
 
 def _fidelity(args: argparse.Namespace) -> int:
+    find_real_data_dir()  # a $SMA_GYM_REAL_DATA that is no folder is refused before minutes of work
     if args.out is None:
         return report_targets.main(args.out, args.json, quick=args.quick)
     check_output_folder(args.out, must_be_empty=not args.overwrite)
-    with locked_folder(args.out):
-        remove_outputs(args.out, FIDELITY_OUTPUTS)
-        return report_targets.main(args.out, args.json, quick=args.quick)
+    # Written into a staging folder and moved in at the end: an interrupt leaves the earlier
+    # plots (or none), and --overwrite removes only what the earlier run listed.
+    with locked_folder(args.out), staged_outputs(args.out) as staging:
+        return report_targets.main(str(staging), args.json, quick=args.quick, shown_out=args.out)
 
 
 FIDELITY = Command(
@@ -149,11 +152,11 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.out is None:
         return evaluate(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
     check_output_folder(args.out, must_be_empty=not args.overwrite)
-    with locked_folder(args.out):
-        # An earlier evaluation's figures of other experiments or policies would sit beside
-        # this report as if they were its own.
-        remove_outputs(args.out, EVALUATE_OUTPUTS)
-        return evaluate(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
+    # Written into a staging folder and moved in at the end: an interrupt leaves the earlier
+    # report whole (or nothing), and the earlier report's figures of other experiments or
+    # policies, which would sit beside this one as its own, are removed then (those it listed).
+    with locked_folder(args.out), staged_outputs(args.out) as staging:
+        return evaluate(str(staging), args.policy or [], args.json, experiments, args.seeds, baselines, args.out)
 
 
 EVALUATE_OUTPUTS = (
@@ -165,7 +168,7 @@ EVALUATE_OUTPUTS = (
     "chapter7_*.png",
     "fig9_multiplexed.png",
 )
-"""What ``sma-gym evaluate --out`` writes: what ``--overwrite`` deletes first, and nothing else."""
+"""What ``sma-gym evaluate --out`` writes (besides the list of its files, ``_io.OUTPUT_LIST``)."""
 
 
 def _require_scored(policy: str, env_id: str, experiments: Sequence[str]) -> None:
@@ -211,8 +214,10 @@ def evaluate(
     experiments: Sequence[str],
     n_seeds: int,
     baselines: Sequence[str] | None = None,
+    shown_out: str | None = None,
 ) -> int:
-    """Score the baselines and the saved ``policies``; print the table (or JSON), write the report into ``out``."""
+    """Score the baselines and the saved ``policies``; print the table (or JSON), write the report into ``out``
+    (``shown_out``: the folder named in the message, where a staging ``out`` is moved to)."""
     if n_seeds < 1:
         raise ValueError(f"seeds = {n_seeds!r}: expected an integer >= 1")
     agents = [load_policy(p) for p in policies]
@@ -230,7 +235,8 @@ def evaluate(
         for note in results.notes:
             print(f"\nnote: {note}")
         if out:
-            print(f"\nreport written to {Path(out).resolve() / 'evaluation.md'} ({len(paths)} files)")
+            shown = Path(shown_out or out).resolve()
+            print(f"\nreport written to {shown / 'evaluation.md'} ({len(paths)} files)")
     return 0
 
 

@@ -818,6 +818,7 @@ def harness_plots(results: Results, plan: RunPlan) -> dict[str, Callable]:
     }
 
 
-def main(out: str | None, as_json: bool, quick: bool = False) -> int:
-    """``sma-gym fidelity``: print the table (or JSON) and write the plots; 1 if a counted row fails."""
-    return fidelity.write_outputs(run(quick=quick), out, as_json)
+def main(out: str | None, as_json: bool, quick: bool = False, shown_out: str | None = None) -> int:
+    """``sma-gym fidelity``: print the table (or JSON) and write the plots; 1 if a counted row
+    fails (``shown_out``: the folder named in the message, where a staging ``out`` is moved to)."""
+    return fidelity.write_outputs(run(quick=quick), out, as_json, shown_out)

@@ -27,12 +27,13 @@ import errno
 import hashlib
 import json
 import os
+import shutil
 import signal
 import socket
 import sys
 import tempfile
 import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -46,7 +47,10 @@ __all__ = [
     "locked_folder",
     "read_json_object",
     "read_text",
-    "remove_outputs",
+    "OUTPUT_LIST",
+    "STAGING_PREFIX",
+    "listed_outputs",
+    "staged_outputs",
     "sha256_file",
     "sigterm_as_interrupt",
     "stopped",
@@ -56,6 +60,12 @@ __all__ = [
 ]
 
 LOCK_NAME = ".sma-gym.lock"
+STAGING_PREFIX = ".sma-gym-staging-"
+"""Hidden folder inside an output folder where a run writes its files before they replace
+the earlier ones (removed whatever happens; one left by a killed run is removed by the next)."""
+OUTPUT_LIST = ".sma-gym-outputs.json"
+"""The list of the files a run wrote into its output folder (:func:`staged_outputs`): what
+the next run with ``--overwrite`` may remove, and nothing else."""
 MAX_JSON_BYTES = 16 * 1024 * 1024
 """Model files, sidecars and policy cards are a few kB; 16 MiB is far beyond any real one."""
 
@@ -145,17 +155,18 @@ def _lock_owner(lock: Path) -> tuple[int, str]:
 
 
 @contextlib.contextmanager
-def locked_folder(folder: str | Path, what: str = "--out") -> Iterator[Path]:
+def locked_folder(folder: str | Path, what: str = "--out", lock_name: str = LOCK_NAME) -> Iterator[Path]:
     """Hold an exclusive lock on ``folder`` (created if needed) for the block.
 
     Raises ``ValueError`` naming the folder and the holder's PID if another live process
     holds it. The lock is also removed at interpreter exit in case the block is skipped
-    by ``os._exit``-free shutdown paths.
+    by ``os._exit``-free shutdown paths. ``lock_name``: the lock file's name, for a lock on
+    one set of files in a folder that others may write beside (``sma-gym synth``).
     """
     target = Path(folder)
     existing = _nearest_existing(target)
     target.mkdir(parents=True, exist_ok=True)
-    lock = target / LOCK_NAME
+    lock = target / lock_name
     me = f"{os.getpid()}\n{socket.gethostname()}\n"
     for _ in range(2):
         try:
@@ -246,8 +257,11 @@ def check_output_folder(folder: str | Path, what: str = "--out", *, must_be_empt
         raise ValueError(f"{what} {str(target)!r}: exists and is not a folder")
     _check_writable_dir(_nearest_existing(target), what, target)
     if must_be_empty and target.is_dir():
-        # A lock left by a killed run is not an output (locked_folder takes a stale one over).
-        entries = sorted(p.name for p in target.iterdir() if p.name != LOCK_NAME)
+        # A lock or staging folder left by a killed run is not an output (the next run takes
+        # a stale lock over and removes the staging folder).
+        entries = sorted(
+            p.name for p in target.iterdir() if p.name != LOCK_NAME and not p.name.startswith(STAGING_PREFIX)
+        )
         if entries:
             shown = ", ".join(entries[:5]) + (", ..." if len(entries) > 5 else "")
             raise ValueError(
@@ -257,17 +271,49 @@ def check_output_folder(folder: str | Path, what: str = "--out", *, must_be_empt
     return target
 
 
-def remove_outputs(folder: str | Path, patterns: Sequence[str]) -> list[Path]:
-    """Delete the files in ``folder`` that match ``patterns`` (glob, this folder only): an
-    earlier run's outputs, which ``--overwrite`` replaces, so that none of them is read as
-    this run's. Nothing else in the folder is touched; returns what was deleted."""
+def listed_outputs(folder: str | Path) -> list[Path] | None:
+    """The files an earlier run listed in ``folder``'s :data:`OUTPUT_LIST` that are still
+    there; None when the folder has no readable list (no earlier run, or one from before the
+    list: its files are then left alone, whatever their names)."""
+    try:
+        names = json.loads((Path(folder) / OUTPUT_LIST).read_text(encoding="utf-8")).get("files")
+    except (OSError, ValueError, AttributeError):
+        return None
+    if not isinstance(names, list) or not all(isinstance(n, str) and Path(n).name == n for n in names):
+        return None
+    return sorted(Path(folder) / n for n in set(names) if (Path(folder) / n).is_file())
+
+
+@contextlib.contextmanager
+def staged_outputs(folder: str | Path) -> Iterator[Path]:
+    """For a run that writes a set of files into ``folder`` (held with :func:`locked_folder`):
+    a hidden staging folder inside it to write them into.
+
+    When the block ends normally each staged file replaces its namesake in ``folder`` (one
+    rename each), the files the earlier run listed (:func:`listed_outputs`) that this run did
+    not write are removed (an earlier report's figure of another experiment would otherwise
+    read as this run's), and the list names this run's files. When it fails or is
+    interrupted, ``folder`` is left as it was. Only listed files are removed, never a file
+    by a name pattern (a user's ``chapter7_photo.png`` beside an evaluation stays); a file
+    this run writes replaces its namesake (``--overwrite``: :func:`check_output_folder`).
+    """
     target = Path(folder)
-    if not target.is_dir():
-        return []
-    gone = sorted({p for pattern in patterns for p in target.glob(pattern) if p.is_file() or p.is_symlink()})
-    for path in gone:
-        path.unlink()
-    return gone
+    for leftover in target.glob(STAGING_PREFIX + "*"):
+        shutil.rmtree(leftover, ignore_errors=True)  # a killed run's (the caller holds the lock)
+    staging = target / f"{STAGING_PREFIX}{os.getpid()}"
+    staging.mkdir()
+    try:
+        yield staging
+        names = sorted(p.name for p in staging.iterdir() if p.is_file())
+        earlier = listed_outputs(target) or []
+        for name in names:
+            os.replace(staging / name, target / name)
+        write_json(target / OUTPUT_LIST, {"files": names})
+        for path in earlier:
+            if path.name not in names:
+                path.unlink(missing_ok=True)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def check_output_file(path: str | Path, what: str = "--out", *, overwrite: bool = False) -> Path:

@@ -238,8 +238,9 @@ def _status_text(row: Row) -> str:
     return row.status
 
 
-def write_outputs(result: FidelityResult, out: str | None, as_json: bool) -> int:
-    """Draw the plots into ``out``, print the table (or JSON); 0 if no counted row fails."""
+def write_outputs(result: FidelityResult, out: str | None, as_json: bool, shown_out: str | None = None) -> int:
+    """Draw the plots into ``out``, print the table (or JSON); 0 if no counted row fails.
+    ``shown_out``: the folder the message names (a staging ``out`` is moved there after)."""
     if out:
         folder = Path(out)
         folder.mkdir(parents=True, exist_ok=True)
@@ -264,7 +265,7 @@ def write_outputs(result: FidelityResult, out: str | None, as_json: bool) -> int
         # The nominal model changes under the same ids: a table names the code it measured.
         print(f"Code: {describe(provenance())}")
         if out:
-            print(f"\nplots written to {Path(out).resolve()}")
+            print(f"\nplots written to {Path(shown_out or out).resolve()}")
     return 0 if result.summary.counts["fail"] == 0 else 1
 
 

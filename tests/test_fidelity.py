@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from sma_gym import fidelity
+from sma_gym._io import OUTPUT_LIST
 from sma_gym.cli import main
 from sma_gym.provenance import describe, provenance
 from sma_gym.report_targets import (
@@ -177,7 +178,7 @@ def test_cli_prints_json_rows_and_writes_the_plots(tmp_path, capsys, monkeypatch
     assert data["provenance"] == provenance()
     # Exactly the outputs --overwrite would replace, less the plots this machine cannot draw.
     drawn = set(FIDELITY_OUTPUTS) - set(result.skipped)
-    assert {p.name for p in tmp_path.iterdir()} == drawn
+    assert {p.name for p in tmp_path.iterdir()} == drawn | {OUTPUT_LIST}
     for name in drawn:
         path = tmp_path / name
         assert path.stat().st_size > 10_000
@@ -200,16 +201,21 @@ def test_a_second_run_into_the_same_folder_needs_overwrite_and_replaces_only_its
     err = capsys.readouterr().err
     assert "not empty" in err and "notes.txt" in err and "--overwrite" in err
     assert [p.name for p in out.iterdir()] == ["notes.txt"]  # nothing written, nothing changed
+    # A file of the user's named like a plot (not listed by a run) is never removed by its name.
+    theirs = out / "fig6_4_holding_duty_my_version.png"
+    theirs.write_bytes(b"mine")
+    main(["fidelity", "--quick", "--overwrite", "--out", str(out)])
+    capsys.readouterr()
     # An earlier run's plot that this run does not draw (here: as if the bench's data were
     # gone) must not stay beside the new ones as if it were theirs.
     stale = out / fidelity.BENCH_PLOT
-    stale.write_bytes(b"old")
+    assert stale.exists() and fidelity.BENCH_PLOT in (out / OUTPUT_LIST).read_text()
     monkeypatch.setattr(
         table, "run", lambda quick=False: fidelity.FidelityResult(result.rows, {}, {fidelity.BENCH_PLOT: "why"})
     )
     main(["fidelity", "--quick", "--overwrite", "--out", str(out)])
     assert f"{fidelity.BENCH_PLOT} not drawn: why" in capsys.readouterr().err
-    assert not stale.exists() and mine.read_text() == "the user's"
+    assert not stale.exists() and mine.read_text() == "the user's" and theirs.read_bytes() == b"mine"
 
 
 def test_the_bench_plot_is_skipped_with_a_reason_without_the_real_runs(monkeypatch):

@@ -351,31 +351,44 @@ def test_commands_check_out_before_the_work(tmp_path, capsys, monkeypatch, comma
 def test_evaluate_into_an_earlier_report_needs_overwrite_and_then_drops_its_stale_figures(
     tmp_path, capsys, monkeypatch
 ):
+    """--overwrite removes the earlier report's files that this run does not write (those the
+    earlier run listed), never a file of the user's by a name pattern (chapter7_*.png took a
+    user's photo), and only once this run is done: an interrupt leaves the earlier report
+    whole (it used to be deleted before the work, and a stop left a lone figure)."""
     import sma_gym_agents.commands
+    from sma_gym._io import OUTPUT_LIST
     from sma_gym.cli import main
 
-    written = []
+    writes = {"names": ["evaluation.md", "evaluation.json", "fig6_5_step_feedforward.png", "chapter7_fan_sine.png"]}
 
     def fake_evaluate(out, *args):
-        written.append(sorted(p.name for p in Path(out).iterdir()))
-        (Path(out) / "evaluation.md").write_text("new")
+        for name in writes["names"]:
+            (Path(out) / name).write_text("new")
+        if writes.get("interrupt"):
+            raise KeyboardInterrupt
         return 0
 
     monkeypatch.setattr(sma_gym_agents.commands, "evaluate", fake_evaluate)
     out = tmp_path / "ev"
     out.mkdir()
-    # An earlier evaluation with an agent and feedforward controllers, and a file of the user's.
-    for name in ("evaluation.md", "evaluation.json", "fig6_5_step_feedforward.png", "chapter7_fan_sine.png"):
-        (out / name).write_text("old")
     (out / "my_notes.md").write_text("keep")
+    (out / "chapter7_my_photo.png").write_text("keep")
     argv = ["evaluate", "--experiments", "6.1", "--baselines", "PID", "--seeds", "1", "--out", str(out)]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "not empty" in err and "--overwrite" in err
-    assert not written and (out / "fig6_5_step_feedforward.png").read_text() == "old"
     assert main([*argv, "--overwrite"]) == 0
-    assert written == [[".sma-gym.lock", "my_notes.md"]]  # the earlier outputs gone before the work
-    assert sorted(p.name for p in out.iterdir()) == ["evaluation.md", "my_notes.md"]
+    first = sorted(p.name for p in out.iterdir())
+    assert first == sorted([*writes["names"], "my_notes.md", "chapter7_my_photo.png", OUTPUT_LIST])
+    writes.update(names=["evaluation.md", "fig6_2_step.png"], interrupt=True)
+    assert main([*argv, "--overwrite"]) == 130
+    assert sorted(p.name for p in out.iterdir()) == first  # as it was: no staging folder, no lock
+    writes.update(interrupt=False)
+    assert main([*argv, "--overwrite"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        ["evaluation.md", "fig6_2_step.png", "my_notes.md", "chapter7_my_photo.png", OUTPUT_LIST]
+    )
+    assert (out / "chapter7_my_photo.png").read_text() == "keep"
 
 
 def test_evaluate_checks_policies_and_experiments_before_the_work(tmp_path, capsys, monkeypatch):
@@ -1723,3 +1736,34 @@ def test_overwrite_removes_nothing_of_a_folder_whose_diagnosis_json_is_not_a_dia
     assert previous_outputs(tmp_path) == []
     (tmp_path / "diagnosis.json").write_text('{"verdict": "none", "gap_before": {}, "gap_after": {}}')
     assert tmp_path / "fit_2_photo.png" in previous_outputs(tmp_path)  # an old report, without its list
+
+
+def test_synth_replaces_its_three_files_together_or_not_at_all_and_one_run_at_a_time(tmp_path, monkeypatch):
+    """An interrupted --overwrite left the new labels beside the old data (the labels are the
+    benchmarks' truth), and two runs on one --out both wrote, mixing their files."""
+    import os
+
+    import sma_gym.diagnosis.synth as synth
+    from sma_gym.model import ModelConfig
+
+    out = tmp_path / "s.csv"
+    synth.write(synth.SynthSpec(ModelConfig(), duration_s=3.0, seed=1), out)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert set(before) == {"s.csv", "s.csv.json", "s.labels.json"}
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(synth, "write_trace", interrupted)  # after the labels are staged
+    with pytest.raises(KeyboardInterrupt):
+        synth.write(synth.SynthSpec(ModelConfig(), duration_s=3.0, seed=2, effect="latent_heat"), out, overwrite=True)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # no staging folder, no lock
+    monkeypatch.undo()
+
+    (tmp_path / ".s.csv.lock").write_text(f"{os.getpid()}\n")  # another live run holds s.csv
+    with pytest.raises(ValueError, match=r"busy.*\.s\.csv\.lock"):
+        synth.write(synth.SynthSpec(ModelConfig(), duration_s=3.0, seed=3), out, overwrite=True)
+    (tmp_path / ".s.csv.lock").unlink()
+    synth.write(synth.SynthSpec(ModelConfig(), duration_s=3.0, seed=3), out, overwrite=True)
+    assert json.loads((tmp_path / "s.labels.json").read_text())["seed"] == 3
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.csv", "s.csv.json", "s.labels.json"]

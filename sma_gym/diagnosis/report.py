@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from sma_gym._io import write_json, write_text
+from sma_gym._io import STAGING_PREFIX, write_json, write_text
 from sma_gym.data.measured import MeasuredTrace
 from sma_gym.diagnosis import fitting
 from sma_gym.diagnosis.workflow import (
@@ -418,19 +418,16 @@ def previous_outputs(out: Path) -> list[Path]:
         data = json.loads(record.read_text())
     except (OSError, ValueError):
         data = None
-    if not isinstance(data, dict) or not {"verdict", "gap_before", "gap_after"} <= set(data):
-        # Not a diagnosis's record (a file of the user's that shares the name): nothing here
-        # is ours to remove, least of all by a name pattern.
+    if not isinstance(data, dict):
         return []
     listed = data.get(RECORD_KEY)
     if isinstance(listed, list) and all(isinstance(n, str) and Path(n).name == n for n in listed):
         return sorted(out / n for n in set(listed) | {"diagnosis.json"} if (out / n).is_file())
+    if not {"verdict", "gap_before", "gap_after"} <= set(data):
+        # Not a diagnosis's record (a file of the user's that shares the name): nothing here
+        # is ours to remove, least of all by a name pattern.
+        return []
     return sorted({p for pattern in OUTPUT_PATTERNS for p in out.glob(pattern) if p.is_file()})
-
-
-STAGING_PREFIX = ".sma-gym-staging-"
-"""Hidden folder inside ``--out`` where a diagnosis writes its files before they replace
-the earlier ones (removed whatever happens; one left by a killed run is removed by the next)."""
 
 
 def write_outputs(

@@ -22,6 +22,8 @@ and diagnosed on a held-out file with a different excitation.
 from __future__ import annotations
 
 import math
+import os
+import shutil
 import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -30,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from sma_gym._io import check_output_file, write_json
+from sma_gym._io import check_output_file, locked_folder, write_json
 from sma_gym._validation import require_int_range, require_range
 from sma_gym.data.measured import (
     DIAGNOSIS_MIN_ROWS,
@@ -263,18 +265,32 @@ def write(spec: SynthSpec, path: Path, overwrite: bool = False, model_name: str 
 
     ``model_name``, a preset or twin name, goes into the sidecar as ``"model"``, as a lab
     names its actuator's nominal model: ``sma-gym diagnose`` then starts from it without
-    ``--model``. Refuses, before any work, to replace any of them unless ``overwrite``;
-    each is written atomically, the CSV last (a CSV on disk always has its sidecar and
-    labels).
+    ``--model``. Refuses, before any work, to replace any of them unless ``overwrite``.
+    The three are written into a hidden staging folder beside them and then moved into
+    place, the CSV last, under a lock on ``path``: an interrupt leaves the earlier three
+    (or none) and two runs on one ``path`` never mix (the labels are the benchmarks' truth).
     """
     check_outputs(path, overwrite)
     trace, labels = generate(spec)
     if model_name is not None:
         trace = replace(trace, conditions={**trace.conditions, "model": model_name})
-    _, _, labels_path = output_paths(path)
-    write_json(labels_path, labels)
-    csv_path = write_trace(path, trace, overwrite=True)
-    return csv_path, labels_path
+    targets = output_paths(path)
+    with locked_folder(path.parent, "--out", lock_name=f".{path.name}.lock"):
+        check_outputs(path, overwrite)  # again, now that no other run can write them
+        staging = path.parent / f".{path.name}.staging-{os.getpid()}"
+        staging.mkdir()
+        try:
+            staged = output_paths(staging / path.name)
+            write_json(staged[2], labels)
+            write_trace(staged[0], trace, overwrite=True)
+            if not staged[1].exists():
+                targets[1].unlink(missing_ok=True)  # an earlier sidecar would be read back with the new data
+            for source, target in zip((staged[1], staged[2], staged[0]), (targets[1], targets[2], targets[0])):
+                if source.exists():
+                    os.replace(source, target)
+        finally:
+            shutil.rmtree(staging, ignore_errors=True)
+    return targets[0], targets[2]
 
 
 def parse_effect(text: str | None) -> tuple[str | None, dict[str, float] | None]:
