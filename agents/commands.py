@@ -60,7 +60,7 @@ FIDELITY_OUTPUTS = (
     "fig9_multiplexed_rise.png",
     fidelity.BENCH_PLOT,
 )
-"""What ``sma-gym fidelity --out`` writes (besides the list of its files, ``_io.OUTPUT_LIST``)."""
+"""What ``sma-gym fidelity --out`` writes (besides the list of its files, ``_io.output_list``)."""
 
 
 def _fidelity(args: argparse.Namespace) -> int:
@@ -70,7 +70,7 @@ def _fidelity(args: argparse.Namespace) -> int:
     check_output_folder(args.out, must_be_empty=not args.overwrite)
     # Written into a staging folder and moved in at the end: an interrupt leaves the earlier
     # plots (or none), and --overwrite removes only what the earlier run listed.
-    with locked_folder(args.out), staged_outputs(args.out) as staging:
+    with locked_folder(args.out), staged_outputs(args.out, "fidelity") as staging:
         return report_targets.main(str(staging), args.json, quick=args.quick, shown_out=args.out)
 
 
@@ -155,7 +155,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     # Written into a staging folder and moved in at the end: an interrupt leaves the earlier
     # report whole (or nothing), and the earlier report's figures of other experiments or
     # policies, which would sit beside this one as its own, are removed then (those it listed).
-    with locked_folder(args.out), staged_outputs(args.out) as staging:
+    with locked_folder(args.out), staged_outputs(args.out, "evaluate") as staging:
         return evaluate(str(staging), args.policy or [], args.json, experiments, args.seeds, baselines, args.out)
 
 
@@ -168,7 +168,7 @@ EVALUATE_OUTPUTS = (
     "chapter7_*.png",
     "fig9_multiplexed.png",
 )
-"""What ``sma-gym evaluate --out`` writes (besides the list of its files, ``_io.OUTPUT_LIST``)."""
+"""What ``sma-gym evaluate --out`` writes (besides the list of its files, ``_io.output_list``)."""
 
 
 def _require_scored(policy: str, env_id: str, experiments: Sequence[str]) -> None:

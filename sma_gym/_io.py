@@ -47,7 +47,7 @@ __all__ = [
     "locked_folder",
     "read_json_object",
     "read_text",
-    "OUTPUT_LIST",
+    "output_list",
     "STAGING_PREFIX",
     "listed_outputs",
     "staged_outputs",
@@ -63,9 +63,15 @@ LOCK_NAME = ".sma-gym.lock"
 STAGING_PREFIX = ".sma-gym-staging-"
 """Hidden folder inside an output folder where a run writes its files before they replace
 the earlier ones (removed whatever happens; one left by a killed run is removed by the next)."""
-OUTPUT_LIST = ".sma-gym-outputs.json"
-"""The list of the files a run wrote into its output folder (:func:`staged_outputs`): what
-the next run with ``--overwrite`` may remove, and nothing else."""
+
+
+def output_list(command: str) -> str:
+    """The name of the list of the files a run of ``command`` wrote into its output folder
+    (:func:`staged_outputs`): what the next run of that command with ``--overwrite`` may
+    remove, and nothing else (one list per command: fidelity never removes an evaluation)."""
+    return f".sma-gym-{command}-outputs.json"
+
+
 MAX_JSON_BYTES = 16 * 1024 * 1024
 """Model files, sidecars and policy cards are a few kB; 16 MiB is far beyond any real one."""
 
@@ -271,12 +277,12 @@ def check_output_folder(folder: str | Path, what: str = "--out", *, must_be_empt
     return target
 
 
-def listed_outputs(folder: str | Path) -> list[Path] | None:
-    """The files an earlier run listed in ``folder``'s :data:`OUTPUT_LIST` that are still
-    there; None when the folder has no readable list (no earlier run, or one from before the
-    list: its files are then left alone, whatever their names)."""
+def listed_outputs(folder: str | Path, command: str) -> list[Path] | None:
+    """The files an earlier run of ``command`` listed in ``folder`` (:func:`output_list`) that
+    are still there; None when the folder has no readable list (no earlier run, or one from
+    before the lists: its files are then left alone, whatever their names)."""
     try:
-        names = json.loads((Path(folder) / OUTPUT_LIST).read_text(encoding="utf-8")).get("files")
+        names = json.loads((Path(folder) / output_list(command)).read_text(encoding="utf-8")).get("files")
     except (OSError, ValueError, AttributeError):
         return None
     if not isinstance(names, list) or not all(isinstance(n, str) and Path(n).name == n for n in names):
@@ -285,7 +291,7 @@ def listed_outputs(folder: str | Path) -> list[Path] | None:
 
 
 @contextlib.contextmanager
-def staged_outputs(folder: str | Path) -> Iterator[Path]:
+def staged_outputs(folder: str | Path, command: str) -> Iterator[Path]:
     """For a run that writes a set of files into ``folder`` (held with :func:`locked_folder`):
     a hidden staging folder inside it to write them into.
 
@@ -300,18 +306,34 @@ def staged_outputs(folder: str | Path) -> Iterator[Path]:
     target = Path(folder)
     for leftover in target.glob(STAGING_PREFIX + "*"):
         shutil.rmtree(leftover, ignore_errors=True)  # a killed run's (the caller holds the lock)
+    before = {p.name for p in target.iterdir()}
     staging = target / f"{STAGING_PREFIX}{os.getpid()}"
     staging.mkdir()
     try:
         yield staging
         names = sorted(p.name for p in staging.iterdir() if p.is_file())
-        earlier = listed_outputs(target) or []
+        blocked = [n for n in names if (target / n).is_dir()]
+        if blocked:
+            raise ValueError(
+                f"{str(target)!r}: {', '.join(blocked)} is a folder where this run writes a file; the earlier "
+                "files are unchanged: move it and run again"
+            )
+        earlier = listed_outputs(target, command)
         for name in names:
             os.replace(staging / name, target / name)
-        write_json(target / OUTPUT_LIST, {"files": names})
-        for path in earlier:
+        write_json(target / output_list(command), {"command": command, "files": names})
+        for path in earlier or []:
             if path.name not in names:
                 path.unlink(missing_ok=True)
+        if earlier is None:
+            others = sorted(n for n in before - set(names) if not n.startswith("."))
+            if others:
+                shown = ", ".join(others[:5]) + (", ..." if len(others) > 5 else "")
+                print(
+                    f"sma-gym {command}: note: {str(target)!r} also holds {shown}, which no earlier run of {command} "
+                    "listed (yours, another command's, or written before 2026-12-06): left alone",
+                    file=sys.stderr,
+                )
     finally:
         shutil.rmtree(staging, ignore_errors=True)
 

@@ -255,12 +255,12 @@ def test_cli_prints_every_metric_as_json_and_writes_the_report(tmp_path, capsys)
     assert md.rstrip().splitlines()[-1] == f"Code: {describe(provenance())}."
     assert json.loads((tmp_path / "evaluation.json").read_text()) == records
     # Every file written is one that --overwrite replaces (the list cannot go stale).
-    from sma_gym._io import OUTPUT_LIST
+    from sma_gym._io import output_list
     from sma_gym_agents.commands import EVALUATE_OUTPUTS
 
-    written = {p.name for p in tmp_path.iterdir()} - {OUTPUT_LIST}
+    written = {p.name for p in tmp_path.iterdir()} - {output_list("evaluate")}
     assert written == {p.name for pattern in EVALUATE_OUTPUTS for p in tmp_path.glob(pattern)}
-    assert sorted(json.loads((tmp_path / OUTPUT_LIST).read_text())["files"]) == sorted(written)
+    assert sorted(json.loads((tmp_path / output_list("evaluate")).read_text())["files"]) == sorted(written)
 
 
 def test_cli_evaluates_a_saved_agent_beside_the_baselines(tmp_path, capsys):

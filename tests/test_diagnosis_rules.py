@@ -580,11 +580,15 @@ def test_a_pair_is_named_only_when_it_predicts_better_than_the_refit(joint_rms, 
     out = workflow._joint(
         r, [("coulomb_friction", "pulse_settling")], [ref], (), problem, held, 1000.0, 0.10, lambda m: None
     )
+    joint = next(c for c in r.candidates if c.name == "coulomb_friction + pulse_settling")
     if named:
         assert out is not None and out.verdict == "effects"
         assert out.effect == ["coulomb_friction", "pulse_settling"]
+        assert joint.why_not == ""
     else:
         assert out is None
+        # The report says which bar the pair failed (it showed an empty cell).
+        assert joint.why_not == "pair: held out not 10% better than each member and the reference"
 
 
 @pytest.mark.parametrize(

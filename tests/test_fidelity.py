@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from sma_gym import fidelity
-from sma_gym._io import OUTPUT_LIST
+from sma_gym._io import output_list
 from sma_gym.cli import main
 from sma_gym.provenance import describe, provenance
 from sma_gym.report_targets import (
@@ -178,7 +178,7 @@ def test_cli_prints_json_rows_and_writes_the_plots(tmp_path, capsys, monkeypatch
     assert data["provenance"] == provenance()
     # Exactly the outputs --overwrite would replace, less the plots this machine cannot draw.
     drawn = set(FIDELITY_OUTPUTS) - set(result.skipped)
-    assert {p.name for p in tmp_path.iterdir()} == drawn | {OUTPUT_LIST}
+    assert {p.name for p in tmp_path.iterdir()} == drawn | {output_list("fidelity")}
     for name in drawn:
         path = tmp_path / name
         assert path.stat().st_size > 10_000
@@ -209,7 +209,7 @@ def test_a_second_run_into_the_same_folder_needs_overwrite_and_replaces_only_its
     # An earlier run's plot that this run does not draw (here: as if the bench's data were
     # gone) must not stay beside the new ones as if it were theirs.
     stale = out / fidelity.BENCH_PLOT
-    assert stale.exists() and fidelity.BENCH_PLOT in (out / OUTPUT_LIST).read_text()
+    assert stale.exists() and fidelity.BENCH_PLOT in (out / output_list("fidelity")).read_text()
     monkeypatch.setattr(
         table, "run", lambda quick=False: fidelity.FidelityResult(result.rows, {}, {fidelity.BENCH_PLOT: "why"})
     )

@@ -356,7 +356,7 @@ def test_evaluate_into_an_earlier_report_needs_overwrite_and_then_drops_its_stal
     user's photo), and only once this run is done: an interrupt leaves the earlier report
     whole (it used to be deleted before the work, and a stop left a lone figure)."""
     import sma_gym_agents.commands
-    from sma_gym._io import OUTPUT_LIST
+    from sma_gym._io import output_list
     from sma_gym.cli import main
 
     writes = {"names": ["evaluation.md", "evaluation.json", "fig6_5_step_feedforward.png", "chapter7_fan_sine.png"]}
@@ -379,14 +379,14 @@ def test_evaluate_into_an_earlier_report_needs_overwrite_and_then_drops_its_stal
     assert "not empty" in err and "--overwrite" in err
     assert main([*argv, "--overwrite"]) == 0
     first = sorted(p.name for p in out.iterdir())
-    assert first == sorted([*writes["names"], "my_notes.md", "chapter7_my_photo.png", OUTPUT_LIST])
+    assert first == sorted([*writes["names"], "my_notes.md", "chapter7_my_photo.png", output_list("evaluate")])
     writes.update(names=["evaluation.md", "fig6_2_step.png"], interrupt=True)
     assert main([*argv, "--overwrite"]) == 130
     assert sorted(p.name for p in out.iterdir()) == first  # as it was: no staging folder, no lock
     writes.update(interrupt=False)
     assert main([*argv, "--overwrite"]) == 0
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        ["evaluation.md", "fig6_2_step.png", "my_notes.md", "chapter7_my_photo.png", OUTPUT_LIST]
+        ["evaluation.md", "fig6_2_step.png", "my_notes.md", "chapter7_my_photo.png", output_list("evaluate")]
     )
     assert (out / "chapter7_my_photo.png").read_text() == "keep"
 
@@ -1568,7 +1568,8 @@ def test_an_interrupt_while_a_diagnosis_writes_leaves_the_earlier_set_whole(tmp_
 
     out = tmp_path / "d"
     out.mkdir()
-    earlier = {"diagnosis.md": "old", "diagnosis.json": json.dumps({"outputs": ["diagnosis.md", "fit_0_a.png"]})}
+    record = {"verdict": "none", "gap_before": {}, "gap_after": {}, "outputs": ["diagnosis.md", "fit_0_a.png"]}
+    earlier = {"diagnosis.md": "old", "diagnosis.json": json.dumps(record)}
     earlier["fit_0_a.png"] = "old plot"
     for name, text in earlier.items():
         (out / name).write_text(text)
@@ -1734,6 +1735,8 @@ def test_overwrite_removes_nothing_of_a_folder_whose_diagnosis_json_is_not_a_dia
     (tmp_path / "diagnosis.json").write_text('{"x": 1}')
     (tmp_path / "fit_2_photo.png").write_text("mine")
     assert previous_outputs(tmp_path) == []
+    (tmp_path / "diagnosis.json").write_text('{"outputs": ["fit_2_photo.png"]}')  # a list alone is no diagnosis
+    assert previous_outputs(tmp_path) == []
     (tmp_path / "diagnosis.json").write_text('{"verdict": "none", "gap_before": {}, "gap_after": {}}')
     assert tmp_path / "fit_2_photo.png" in previous_outputs(tmp_path)  # an old report, without its list
 
@@ -1760,10 +1763,48 @@ def test_synth_replaces_its_three_files_together_or_not_at_all_and_one_run_at_a_
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # no staging folder, no lock
     monkeypatch.undo()
 
-    (tmp_path / ".s.csv.lock").write_text(f"{os.getpid()}\n")  # another live run holds s.csv
-    with pytest.raises(ValueError, match=r"busy.*\.s\.csv\.lock"):
+    (tmp_path / ".s.labels.json.lock").write_text(f"{os.getpid()}\n")  # another live run holds s.csv
+    with pytest.raises(ValueError, match=r"s\.csv.*busy.*\.s\.labels\.json\.lock"):
         synth.write(synth.SynthSpec(ModelConfig(), duration_s=3.0, seed=3), out, overwrite=True)
-    (tmp_path / ".s.csv.lock").unlink()
+    (tmp_path / ".s.labels.json.lock").unlink()
+    (tmp_path / ".s.labels.json.staging-99999999").mkdir()  # a killed run's, removed by the next
     synth.write(synth.SynthSpec(ModelConfig(), duration_s=3.0, seed=3), out, overwrite=True)
     assert json.loads((tmp_path / "s.labels.json").read_text())["seed"] == 3
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.csv", "s.csv.json", "s.labels.json"]
+    # Another CSV name with the same labels file is refused, not mixed (w.csv / w.CSV).
+    with pytest.raises(ValueError, match="s.labels.json"):
+        synth.write(synth.SynthSpec(ModelConfig(), duration_s=3.0, seed=4), tmp_path / "s.CSV")
+
+
+def test_each_command_removes_only_its_own_listed_outputs_and_a_folder_in_the_way_changes_nothing(tmp_path, capsys):
+    """fidelity --overwrite into a folder holding an evaluation removed the evaluation's files
+    (one list for every command); a folder named like an output failed half-way."""
+    from sma_gym._io import output_list, staged_outputs
+
+    with staged_outputs(tmp_path, "evaluate") as staging:
+        (staging / "evaluation.md").write_text("eval")
+    with staged_outputs(tmp_path, "fidelity") as staging:
+        (staging / "fig8_efficiency.png").write_text("fid")
+    assert "evaluation.md" in capsys.readouterr().err  # named as left alone, not removed
+    with staged_outputs(tmp_path, "fidelity") as staging:
+        (staging / "fig6_4_holding_duty.png").write_text("fid 2")
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert names == sorted(
+        ["evaluation.md", "fig6_4_holding_duty.png", output_list("evaluate"), output_list("fidelity")]
+    )
+    (tmp_path / "evaluation.json").mkdir()
+    with pytest.raises(ValueError, match="evaluation.json is a folder"):
+        with staged_outputs(tmp_path, "evaluate") as staging:
+            (staging / "evaluation.md").write_text("new")
+            (staging / "evaluation.json").write_text("new")
+    assert (tmp_path / "evaluation.md").read_text() == "eval"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([*names, "evaluation.json"])
+
+
+def test_conditions_of_two_files_that_share_a_name_are_both_reported():
+    from sma_gym.data.measured import MeasuredTrace
+    from sma_gym.diagnosis.workflow import _labels
+
+    files = [MeasuredTrace(f"{d}/run.csv", np.zeros(1), np.zeros(1), np.zeros(1)) for d in ("a", "b")]
+    files.append(MeasuredTrace("c/other.csv", np.zeros(1), np.zeros(1), np.zeros(1)))
+    assert _labels(files) == ["a/run.csv", "b/run.csv", "other.csv"]

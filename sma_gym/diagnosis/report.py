@@ -143,7 +143,9 @@ def write_report(
         f"refit's by more than {BIC_THRESHOLD:g}, held-out error lower by at least {HELDOUT_GAIN:.0%}, better "
         f"held out than the model as given, and better consistently along the held-out data (t >= "
         f"{SEPARATION_T:g} over {SEPARATION_BLOCKS} blocks); later rounds ask a gain of {LATER_ROUND_GAIN:.0%}. "
-        "A candidate that is not supported can still be a rival of the best (docs/diagnosis.md, Verdict rules).",
+        "A candidate that is not supported can still be a rival of the best (docs/diagnosis.md, Verdict rules). "
+        "A pair (A + B) is judged against each of its members and the refit: its delta BIC and gain here are "
+        "against its better member.",
         "",
         "| candidate | delta BIC | held-out normalised RMS | held-out gain | supported, or why not |",
         "|---|---|---|---|---|",
@@ -418,15 +420,13 @@ def previous_outputs(out: Path) -> list[Path]:
         data = json.loads(record.read_text())
     except (OSError, ValueError):
         data = None
-    if not isinstance(data, dict):
+    if not isinstance(data, dict) or not {"verdict", "gap_before", "gap_after"} <= set(data):
+        # Not a diagnosis's record (a file of the user's that shares the name): nothing here
+        # is ours to remove, neither what it lists nor by a name pattern.
         return []
     listed = data.get(RECORD_KEY)
     if isinstance(listed, list) and all(isinstance(n, str) and Path(n).name == n for n in listed):
         return sorted(out / n for n in set(listed) | {"diagnosis.json"} if (out / n).is_file())
-    if not {"verdict", "gap_before", "gap_after"} <= set(data):
-        # Not a diagnosis's record (a file of the user's that shares the name): nothing here
-        # is ours to remove, least of all by a name pattern.
-        return []
     return sorted({p for pattern in OUTPUT_PATTERNS for p in out.glob(pattern) if p.is_file()})
 
 

@@ -275,9 +275,12 @@ def write(spec: SynthSpec, path: Path, overwrite: bool = False, model_name: str 
     if model_name is not None:
         trace = replace(trace, conditions={**trace.conditions, "model": model_name})
     targets = output_paths(path)
-    with locked_folder(path.parent, "--out", lock_name=f".{path.name}.lock"):
+    # Locked by the labels' name, which two CSV names can share (w.csv and w.CSV: w.labels.json).
+    with locked_folder(path.parent, f"--out {str(path)!r} in", lock_name=f".{targets[2].name}.lock"):
         check_outputs(path, overwrite)  # again, now that no other run can write them
-        staging = path.parent / f".{path.name}.staging-{os.getpid()}"
+        for leftover in path.parent.glob(f".{targets[2].name}.staging-*"):
+            shutil.rmtree(leftover, ignore_errors=True)  # a killed run's (we hold the lock)
+        staging = path.parent / f".{targets[2].name}.staging-{os.getpid()}"
         staging.mkdir()
         try:
             staged = output_paths(staging / path.name)

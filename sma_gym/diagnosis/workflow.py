@@ -601,9 +601,15 @@ def diagnose(
         carried=carried,
         kept_as_given=kept_as_given,
         conditions=shared,
-        differing_conditions={k: {t.name: v for t, v in zip(files, vs)} for k, vs in differing.items()},
+        differing_conditions={k: dict(zip(_labels(files), vs)) for k, vs in differing.items()},
         held_out_files=[t.name for t in heldout_traces],
     )
+
+
+def _labels(files: Sequence[MeasuredTrace]) -> list[str]:
+    """Each file's name, or its path where two files share a name (``a/run.csv``, ``b/run.csv``)."""
+    names = [t.name for t in files]
+    return [t.name if names.count(t.name) == 1 else str(t.path) for t in files]
 
 
 def _corrected_model(
@@ -619,7 +625,7 @@ def _corrected_model(
     if shared:
         notes += "; the files' conditions: " + ", ".join(f"{k} = {v:g}" for k, v in shared.items())
     for key, values in differing.items():
-        given = ", ".join(f"{t.name} " + ("not given" if v is None else f"{v:g}") for t, v in zip(files, values))
+        given = ", ".join(f"{f} " + ("not given" if v is None else f"{v:g}") for f, v in zip(_labels(files), values))
         kept = fitting.condition_value(ModelConfig(actuator), key)
         notes += (
             f"; the files differ in {key} ({given}): each was fitted at its own, the model keeps {kept:g} "
@@ -1079,6 +1085,22 @@ def _joint(
         joint.delta_bic = joint.bic - min(ca.bic, cb.bic)
         joint.heldout_gain = 1.0 - joint.heldout_score / min(ca.heldout_score, cb.heldout_score)
         joint.supported = beats and joint.heldout_score < r.as_given
+        # The first bar it fails, for the report (the checks of ``beats``, cheapest first).
+        fitted_ok = joint.bic < bar_bic - BIC_THRESHOLD and all(
+            joint.bic < s.bic - BIC_THRESHOLD for s in (ca, cb, floor)
+        )
+        held_ok = all(joint.heldout_score <= (1.0 - heldout_gain) * s.heldout_score for s in (ca, cb, floor))
+        joint.why_not = (
+            ""
+            if joint.supported
+            else "pair: the fitted data do not prefer it to each member and the reference by the BIC bar"
+            if not fitted_ok
+            else f"pair: held out not {heldout_gain:.0%} better than each member and the reference"
+            if not held_ok
+            else "pair: not consistently better than each member over the held-out blocks"
+            if not beats
+            else "held out: no better than the model as given, unrefitted"
+        )
         r.candidates.append(joint)
         if joint.supported:
             supported.append((joint, [a, b]))
@@ -1224,6 +1246,10 @@ def _judge(
     if floor.heldout_score <= NOISE_STOP:
         # The refit alone leaves residuals within the stopping distance of the noise: there
         # is nothing left for an effect to explain (the same rule that ends the rounds).
+        for c in candidates[1:]:
+            if c.supported:
+                c.supported = False
+                c.why_not = f"the reference is already within {NOISE_STOP:g}x the noise: nothing left to explain"
         return _Round("none", None, ref, ref, candidates, None, as_given)
     for c in candidates[1:]:
         if not c.supported:
