@@ -754,7 +754,7 @@ class ActuatorParams:
         for key, value in changes.items():
             if "." in key:
                 part, name = key.split(".", 1)
-                if part not in ("wire", "mechanism", "convection", "driver", "sensors"):
+                if part not in _PARTS:
                     raise ValueError(f"unknown parameter group {part!r} in {key!r}")
                 known = {f.name for f in dataclasses.fields(getattr(self, part))}
                 if name not in known:

@@ -257,13 +257,9 @@ def prepare(trace: MeasuredTrace, control_period_s: float, mask: np.ndarray | No
     return TraceData(trace, np.ascontiguousarray(duty), np.clip(steps, -1, len(duty) - 1), outputs, noise, m, rest)
 
 
-SIDECAR_PARAMETERS = SIDECAR_KEYS
-"""Each numeric sidecar condition and the model parameter it sets (``sma_gym.data.measured.SIDECAR_KEYS``)."""
-
-
 def model_for_trace(model: ModelConfig, trace: MeasuredTrace) -> ModelConfig:
     """Apply the trace's sidecar conditions (supply, diameter, PWM, ambient) to a model."""
-    return with_conditions(model, {key: trace.conditions[key] for key in SIDECAR_PARAMETERS if key in trace.conditions})
+    return with_conditions(model, {key: trace.conditions[key] for key in SIDECAR_KEYS if key in trace.conditions})
 
 
 def shared_conditions(traces: Sequence[MeasuredTrace]) -> tuple[dict[str, float], dict[str, list[float | None]]]:
@@ -272,7 +268,7 @@ def shared_conditions(traces: Sequence[MeasuredTrace]) -> tuple[dict[str, float]
     different values or only some give ({key: each trace's value, None where not given})."""
     shared: dict[str, float] = {}
     differing: dict[str, list[float | None]] = {}
-    for key in SIDECAR_PARAMETERS:
+    for key in SIDECAR_KEYS:
         values = [t.conditions.get(key) for t in traces]
         if all(v is None for v in values):
             continue
@@ -284,20 +280,20 @@ def shared_conditions(traces: Sequence[MeasuredTrace]) -> tuple[dict[str, float]
 
 
 def with_conditions(model: ModelConfig, conditions: Mapping[str, float]) -> ModelConfig:
-    """``model`` with sidecar ``conditions`` ({key of ``SIDECAR_PARAMETERS``: value}) set."""
-    changes = {SIDECAR_PARAMETERS[key]: value for key, value in conditions.items()}
+    """``model`` with sidecar ``conditions`` ({key of ``SIDECAR_KEYS``: value}) set."""
+    changes = {SIDECAR_KEYS[key]: value for key, value in conditions.items()}
     return model.with_actuator(**changes) if changes else model
 
 
 def assumed_conditions(model: ModelConfig, trace: MeasuredTrace) -> dict[str, float]:
     """The conditions the trace's sidecar does not give, as ``model`` sets them (what a
     diagnosis of the trace assumes)."""
-    return {key: condition_value(model, key) for key in SIDECAR_PARAMETERS if key not in trace.conditions}
+    return {key: condition_value(model, key) for key in SIDECAR_KEYS if key not in trace.conditions}
 
 
 def condition_value(model: ModelConfig, key: str) -> float:
-    """The value ``model`` gives the sidecar condition ``key`` (of ``SIDECAR_PARAMETERS``)."""
-    group, name = SIDECAR_PARAMETERS[key].split(".")
+    """The value ``model`` gives the sidecar condition ``key`` (of ``SIDECAR_KEYS``)."""
+    group, name = SIDECAR_KEYS[key].split(".")
     return float(getattr(getattr(model.actuator, group), name))
 
 

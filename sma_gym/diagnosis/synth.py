@@ -267,7 +267,7 @@ def write(spec: SynthSpec, path: Path, overwrite: bool = False, model_name: str 
     names its actuator's nominal model: ``sma-gym diagnose`` then starts from it without
     ``--model``. Refuses, before any work, to replace any of them unless ``overwrite``.
     The three are written into a hidden staging folder beside them and then moved into
-    place, the CSV last, under a lock on ``path``: an interrupt leaves the earlier three
+    place, the CSV last, under a lock on the labels' name: an interrupt leaves the earlier three
     (or none) and two runs on one ``path`` never mix (the labels are the benchmarks' truth).
     """
     check_outputs(path, overwrite)
