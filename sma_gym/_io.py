@@ -53,6 +53,7 @@ __all__ = [
     "staged_outputs",
     "sha256_file",
     "sigterm_as_interrupt",
+    "signals_deferred",
     "stopped",
     "write_bytes",
     "write_json",
@@ -319,12 +320,13 @@ def staged_outputs(folder: str | Path, command: str) -> Iterator[Path]:
                 "files are unchanged: move it and run again"
             )
         earlier = listed_outputs(target, command)
-        for name in names:
-            os.replace(staging / name, target / name)
-        write_json(target / output_list(command), {"command": command, "files": names})
-        for path in earlier or []:
-            if path.name not in names:
-                path.unlink(missing_ok=True)
+        with signals_deferred():
+            for name in names:
+                os.replace(staging / name, target / name)
+            write_json(target / output_list(command), {"command": command, "files": names})
+            for path in earlier or []:
+                if path.name not in names:
+                    path.unlink(missing_ok=True)
         if earlier is None:
             others = sorted(n for n in before - set(names) if not n.startswith("."))
             if others:
@@ -432,6 +434,23 @@ def stopped(err: KeyboardInterrupt) -> tuple[str, int]:
     """How a command stopped by ``err`` says so and the exit code it returns: the shell's
     for the signal (``("terminated", 143)`` for SIGTERM, ``("interrupted", 130)`` for Ctrl-C)."""
     return ("terminated", Terminated.exit_code) if isinstance(err, Terminated) else ("interrupted", 130)
+
+
+@contextlib.contextmanager
+def signals_deferred() -> Iterator[None]:
+    """Ctrl-C and SIGTERM wait until the block ends: a run's last renames happen all or none
+    (a stop between two left a new report beside an old figure). The signal is then taken
+    as usual (KeyboardInterrupt, :class:`Terminated`), the outputs whole. Only the main
+    thread can block signals; elsewhere, or without ``pthread_sigmask``, the block runs
+    unchanged."""
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 @contextlib.contextmanager

@@ -1808,3 +1808,41 @@ def test_conditions_of_two_files_that_share_a_name_are_both_reported():
     files = [MeasuredTrace(f"{d}/run.csv", np.zeros(1), np.zeros(1), np.zeros(1)) for d in ("a", "b")]
     files.append(MeasuredTrace("c/other.csv", np.zeros(1), np.zeros(1), np.zeros(1)))
     assert _labels(files) == ["a/run.csv", "b/run.csv", "other.csv"]
+
+
+def test_a_stop_during_the_last_renames_waits_until_they_are_all_done(tmp_path, monkeypatch):
+    """A Ctrl-C between two of a run's final renames left a new report beside an old figure
+    (the verifier simulated it): the renames now happen all or none, the stop after them."""
+    import os
+    import signal
+
+    from sma_gym._io import signals_deferred, staged_outputs
+
+    done = []
+    with pytest.raises(KeyboardInterrupt):
+        with signals_deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            for k in range(3):
+                done.append(k)
+        done.append("after")  # never reached: the stop lands as the block ends
+    assert done == [0, 1, 2]
+
+    with staged_outputs(tmp_path, "evaluate") as staging:
+        for name in ("a.md", "b.png"):
+            (staging / name).write_text("old")
+    real_replace = os.replace
+
+    def replace_then_stop(src, dst):
+        real_replace(src, dst)
+        os.kill(os.getpid(), signal.SIGINT)  # a stop after the first rename
+
+    with pytest.raises(KeyboardInterrupt):
+        with staged_outputs(tmp_path, "evaluate") as staging:
+            for name in ("a.md", "b.png"):
+                (staging / name).write_text("new")
+            monkeypatch.setattr(os, "replace", replace_then_stop)
+    monkeypatch.undo()
+    assert {p.name: p.read_text() for p in tmp_path.glob("*.*") if not p.name.startswith(".")} == {
+        "a.md": "new",
+        "b.png": "new",
+    }

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from sma_gym._io import STAGING_PREFIX, write_json, write_text
+from sma_gym._io import STAGING_PREFIX, signals_deferred, write_json, write_text
 from sma_gym.data.measured import MeasuredTrace
 from sma_gym.diagnosis import fitting
 from sma_gym.diagnosis.workflow import (
@@ -458,14 +458,15 @@ def write_outputs(
         record = {**result.as_dict(), "provenance": provenance(), RECORD_KEY: names}
         write_json(staging / "diagnosis.json", record, default=json_default)
         result.corrected_model.save(staging / "corrected_model.json")
-        for name in names:
-            os.replace(staging / name, out / name)  # the corrected model last (see names)
+        with signals_deferred():
+            for name in names:
+                os.replace(staging / name, out / name)  # the corrected model last (see names)
+            # An earlier run's files that this one did not write would read as this run's.
+            for stale in earlier:
+                if stale.name not in names:
+                    stale.unlink(missing_ok=True)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
-    # An earlier run's files that this one did not write would read as this run's.
-    for stale in earlier:
-        if stale.name not in names:
-            stale.unlink(missing_ok=True)
     return {"model": out / "corrected_model.json", "json": out / "diagnosis.json", "report": out / "diagnosis.md"}
 
 

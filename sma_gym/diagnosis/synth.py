@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from sma_gym._io import check_output_file, locked_folder, write_json
+from sma_gym._io import check_output_file, locked_folder, signals_deferred, write_json
 from sma_gym._validation import require_int_range, require_range
 from sma_gym.data.measured import (
     DIAGNOSIS_MIN_ROWS,
@@ -286,11 +286,12 @@ def write(spec: SynthSpec, path: Path, overwrite: bool = False, model_name: str 
             staged = output_paths(staging / path.name)
             write_json(staged[2], labels)
             write_trace(staged[0], trace, overwrite=True)
-            if not staged[1].exists():
-                targets[1].unlink(missing_ok=True)  # an earlier sidecar would be read back with the new data
-            for source, target in zip((staged[1], staged[2], staged[0]), (targets[1], targets[2], targets[0])):
-                if source.exists():
-                    os.replace(source, target)
+            with signals_deferred():
+                if not staged[1].exists():
+                    targets[1].unlink(missing_ok=True)  # an earlier sidecar would be read back with the new data
+                for source, target in zip((staged[1], staged[2], staged[0]), (targets[1], targets[2], targets[0])):
+                    if source.exists():
+                        os.replace(source, target)
         finally:
             shutil.rmtree(staging, ignore_errors=True)
     return targets[0], targets[2]
