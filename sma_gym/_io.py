@@ -439,18 +439,24 @@ def stopped(err: KeyboardInterrupt) -> tuple[str, int]:
 @contextlib.contextmanager
 def signals_deferred() -> Iterator[None]:
     """Ctrl-C and SIGTERM wait until the block ends: a run's last renames happen all or none
-    (a stop between two left a new report beside an old figure). The signal is then taken
-    as usual (KeyboardInterrupt, :class:`Terminated`), the outputs whole. Only the main
-    thread can block signals; elsewhere, or without ``pthread_sigmask``, the block runs
-    unchanged."""
-    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
+    (a stop between two left a new report beside an old figure). The signal is then raised
+    again for the handler it would have met (KeyboardInterrupt, :class:`Terminated`), the
+    outputs whole. Python's handlers run in the main thread only, so elsewhere the block
+    runs unchanged. (Handlers, not ``pthread_sigmask``: a mask holds for one thread, and the
+    kernel gives a process's signal to any other thread, e.g. a worker's I/O thread.)"""
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    received: list[int] = []
+    kinds = (signal.SIGINT, signal.SIGTERM)
+    previous = {s: signal.signal(s, lambda signum, frame: received.append(signum)) for s in kinds}
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        if received:
+            signal.raise_signal(received[0])
 
 
 @contextlib.contextmanager
