@@ -220,12 +220,30 @@ def test_multiplexed_info_has_fixed_shape_entries_and_no_nested_descriptions():
     assert len(env.unwrapped.reference_description()) == 3
 
 
-def test_torchrl_batched_gym_env_passes_its_spec_check():
-    torchrl_envs = pytest.importorskip("torchrl.envs")
+def test_an_unknown_kwarg_is_a_type_error_in_pythons_words_as_tools_probe_for():
+    """TorchRL's ``GymEnv`` makes an env with ``frameskip`` and drops it on a ``TypeError``
+    saying "unexpected keyword argument 'frameskip'" (Python's own wording); a plain
+    ``ValueError`` stopped it for every id."""
+    for env_id in sma_gym.ENV_IDS:
+        with pytest.raises(TypeError, match="unexpected keyword argument 'frameskip'") as err:
+            gym.make(f"sma_gym:{env_id}", frameskip=4)
+        assert isinstance(err.value, ValueError)  # as every other bad kwarg, and as before
+        assert "render_mode" in str(err.value)  # what it takes instead
+
+
+def test_torchrl_gym_env_builds_every_id_and_passes_its_spec_check():
+    """TorchRL (in the test extra) builds each id by name, and a batched one."""
+    from torchrl.envs import GymEnv
     from torchrl.envs.utils import check_env_specs
 
-    env = torchrl_envs.GymEnv("sma_gym:SMATracking-v0", num_envs=4)
+    for env_id in sma_gym.ENV_IDS:
+        env = GymEnv(f"sma_gym:{env_id}")
+        check_env_specs(env)
+        assert env.rollout(3)["next", "reward"].shape == (3, 1)
+        env.close()
+    env = GymEnv("sma_gym:SMATracking-v0", num_envs=4)
     check_env_specs(env)
+    env.close()
 
 
 # --- item 5: the SB3 adapter reports episodes -----------------------------------------------------------

@@ -201,8 +201,7 @@ def test_history_wrapper_built_by_the_zoo_equals_the_one_train_py_builds():
 
 
 def test_the_zoo_preprocesses_every_entry(tmp_path):
-    """RL Zoo's own reading of our files (skipped without rl_zoo3, an optional extra)."""
-    pytest.importorskip("rl_zoo3", reason="RL Zoo not installed (pip install -e .[zoo])")
+    """RL Zoo's own reading of our files (rl_zoo3: the zoo extra, which the test extra installs)."""
     from rl_zoo3.exp_manager import ExperimentManager
 
     for algo, env_id in ENTRIES:
@@ -240,7 +239,6 @@ def test_the_zoo_preprocesses_every_entry(tmp_path):
 def test_the_zoo_trains_our_default_agent_from_our_file(tmp_path):
     """``python -m rl_zoo3.train`` with our conf file, a few hundred steps: the saved model
     sees what train.py's does (raw observation, base duty, five history features)."""
-    pytest.importorskip("rl_zoo3", reason="RL Zoo not installed (pip install -e .[zoo])")
     import subprocess
     import sys
 

@@ -60,7 +60,7 @@ def test_the_lean_install_needs_only_numpy_numba_and_gymnasium():
     assert names == set(LEAN)
     extras = project["optional-dependencies"]
     assert {"plots", "diagnose", "train", "all", "test"} <= set(extras)
-    assert "sma-gym[all]" in extras["test"], "the tests cover everything: the test extra installs all"
+    assert "sma-gym[all,zoo]" in extras["test"], "the tests cover everything: the test extra installs all and the zoo"
     # Every module the code guards with an extra is installed by that extra.
     for module, extra in EXTRA_OF_MODULE.items():
         wanted = {"matplotlib": "matplotlib", "scipy": "scipy", "yaml": "pyyaml", "tensorboard": "tensorboard"}

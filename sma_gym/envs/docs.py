@@ -134,6 +134,10 @@ MODEL_CHANGE = """
       without a reference); through `make_vec`, `max_episode_steps=None` is the registered
       1000 and `-1` never, as in `gym.make`, in every vectorization mode (the native
       vector env took `None` as never).
+    * main (unreleased): an unknown kwarg raises `UnexpectedKwargError`, a `ValueError` as
+      before and also a `TypeError` in Python's wording ("got an unexpected keyword
+      argument"), which is how tools probe a constructor: TorchRL's `GymEnv` can build every
+      id (it passes `frameskip` and drops it on that `TypeError`).
     """
 
 ROBUST_MODEL_CHECK = """

@@ -66,28 +66,38 @@ SELF_SENSING = Variant(
 ROBUST = Variant("robust", task.OBS_POSITION, task.DutyRange(0.0, 1.0), randomised=True)
 
 
+class UnexpectedKwargError(TypeError, ValueError):
+    """An env kwarg the env does not take. A ``TypeError``, as Python raises for an unexpected
+    keyword, with Python's wording, because tools probe an env's constructor that way (TorchRL's
+    ``GymEnv`` passes ``frameskip`` and drops it on that ``TypeError``); and a ``ValueError``, as
+    every other bad kwarg here and as this package raised before."""
+
+
 def reject_unknown(unknown: dict[str, Any], accepted: tuple[str, ...]) -> None:
-    """Raise ``ValueError`` for env kwargs that are not in the env's signature."""
+    """Raise :class:`UnexpectedKwargError` for env kwargs that are not in the env's signature."""
     if not unknown:
         return
     name = min(unknown)
     if name in CONDITION_KWARGS:
         field = {"supply_voltage_v": "driver.supply_voltage_v", "wire_diameter_m": "wire.diameter_m"}.get(name)
         own = f", or sma_gym.load_model().with_actuator(**{{{field!r}: ...}})" if field else ""
-        raise ValueError(
+        raise UnexpectedKwargError(
             f"{name} = {unknown[name]!r}: only the robustness env takes conditions; here the model carries them: "
             f"model= one of {', '.join(repr(m) for m in model_names())}, a model JSON file{own}"
         )
     if name == "pwm_mode":
-        raise ValueError("pwm_mode: the multiplexed env is always PWM-resolved")
+        raise UnexpectedKwargError("pwm_mode: the multiplexed env is always PWM-resolved")
     if name == "autoreset_mode":
         # make_vec passes its keywords to each sub-env in the "sync" and "async" modes.
-        raise ValueError(
+        raise UnexpectedKwargError(
             f"autoreset_mode = {unknown[name]!r} is a vector env's setting, not an env's: with "
             "vectorization_mode='sync' or 'async' give it as vector_kwargs={'autoreset_mode': ...}; "
             "the native vector env (vectorization_mode='vector_entry_point') takes it directly"
         )
-    raise ValueError(f"unknown env kwargs {sorted(unknown)}: expected some of {list(accepted)}")
+    raise UnexpectedKwargError(
+        f"got an unexpected keyword argument {name!r}: unknown env kwargs {sorted(unknown)}, expected some of "
+        f"{list(accepted)}"
+    )
 
 
 def keyword_settings(init: Callable[..., Any], exclude: tuple[str, ...] = ()) -> dict[str, inspect.Parameter]:
@@ -138,7 +148,7 @@ class Settings:
 
         ``arguments`` is ``dict(locals())`` at the top of the env's ``__init__``: every
         parameter of its signature (where the defaults are), and ``unknown`` for names not
-        in it, which raise ``ValueError``. ``fixed`` sets what the env does not let the user
+        in it, which raise :class:`UnexpectedKwargError` (a ``ValueError``). ``fixed`` sets what the env does not let the user
         choose (the multiplexed env's ``pwm_mode``). The condition kwargs (``None``: the
         default of :class:`Conditions`) are accepted by a randomised variant only.
         """
