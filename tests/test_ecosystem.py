@@ -82,6 +82,28 @@ def test_every_autoreset_mode_matches_gymnasiums_sync_vector_env(env_id, mode):
     assert ended >= 2 * n
 
 
+@pytest.mark.parametrize("env_id", sma_gym.ENV_IDS)
+def test_a_masked_reset_marks_only_the_reset_sub_envs_info_as_gymnasiums_sync_env_does(env_id):
+    """``info["_key"][i]`` says whether sub-env i has an entry: after a masked reset, only the
+    reset ones (the native envs marked every sub-env, so a loop that finds its fresh episodes
+    by the masks took the running ones for new)."""
+    mask = np.array([False, True, False])
+    ours, theirs = native(env_id, 3), gym.make_vec("sma_gym:" + env_id, num_envs=3, vectorization_mode="sync")
+    for env in (ours, theirs):
+        env.reset(seed=0)
+        for _ in range(5):
+            env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+    (a, info_a), (b, info_b) = ours.reset(options={"reset_mask": mask}), theirs.reset(options={"reset_mask": mask})
+    assert np.array_equal(a, b)
+    assert {k for k in info_b if k.startswith("_")} <= set(info_a)
+    for key in (k for k in info_b if k.startswith("_")):
+        assert np.array_equal(info_a[key], mask), key
+        assert np.array_equal(info_a[key[1:]][mask], info_b[key[1:]][mask]), key
+    info_a["_time_s"][0] = True  # each mask its own array, not the caller's
+    assert not mask[0] and not ours.reset(options={"reset_mask": mask})[1]["_time_s"][0]
+    assert ours.reset()[1]["_time_s"].all()
+
+
 def test_gymnasiums_vector_observation_wrappers_run_on_the_native_vector_env():
     from gymnasium.wrappers.vector import (
         DtypeObservation,

@@ -137,7 +137,9 @@ MODEL_CHANGE = """
     * main (unreleased): an unknown kwarg raises `UnexpectedKwargError`, a `ValueError` as
       before and also a `TypeError` in Python's wording ("got an unexpected keyword
       argument"), which is how tools probe a constructor: TorchRL's `GymEnv` can build every
-      id (it passes `frameskip` and drops it on that `TypeError`).
+      id (it passes `frameskip` and drops it on that `TypeError`). The native vector envs'
+      `_key` info masks after a masked reset are true only for the sub-envs it reset, as in
+      Gymnasium's `SyncVectorEnv` (they were all true).
     """
 
 ROBUST_MODEL_CHECK = """

@@ -287,7 +287,7 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
             "Autoreset `NEXT_STEP` only (Gymnasium's default): the step after a bank ends ignores "
             "its action, resets it and returns its first observation with reward 0.",
         ),
-        Info="The single env's keys, each an array of shape (num_envs, n) (`time_s`: (num_envs,)), with `_key` masks.",
+        Info="The single env's keys, each an array of shape (num_envs, n) (`time_s`: (num_envs,)), with `_key` masks (all true, but after a masked reset: true for the banks it reset).",
         Arguments=docs.arguments(
             """
             - `num_envs`: number of banks (1 to 2**16).
@@ -400,7 +400,7 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
             if seeds[b] is not None:
                 self._rngs[b], _ = seeding.np_random(seeds[b])
         self._reset_banks(np.flatnonzero(mask), options)
-        return self._observation(), self._info()
+        return self._observation(), self._info(mask)
 
     def _reset_banks(self, banks: np.ndarray, options: dict) -> None:
         n = self.n
@@ -459,11 +459,14 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
     def _observation(self) -> np.ndarray:
         return self._obs.reshape(self.num_envs, -1).copy()
 
-    def _info(self) -> dict[str, Any]:
+    def _info(self, fresh: np.ndarray | None = None) -> dict[str, Any]:
+        """Every bank's info; the ``_key`` masks are ``fresh`` (the banks a masked reset reset)
+        or all true."""
         m, n = self.num_envs, self.n
         info = {key: value.reshape(m, n) for key, value in self.task.info(self.sim, self._ref).items()}
         info["time_s"] = self.sim.time_s[::n].copy()
+        fresh = np.ones(m, dtype=bool) if fresh is None else fresh
         for key in list(info):
             # Each mask its own array: a caller editing one must not change another.
-            info["_" + key] = np.ones(m, dtype=bool)
+            info["_" + key] = fresh.copy()
         return info

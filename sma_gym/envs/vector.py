@@ -105,7 +105,8 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         ),
         Info=docs.join(
             "The single env's keys, each an array of fixed shape (num_envs,) with its `_key` "
-            "mask, the same keys at reset and at every step:",
+            "mask (all true, but after a masked reset: true for the sub-envs it reset), the same "
+            "keys at reset and at every step:",
             docs.INFO_KEYS,
             "and for the robustness variant the drawn condition:",
             task.info_list(CONDITION_INFO),
@@ -235,7 +236,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             if seeds[i] is not None:
                 self._rngs[i], _ = seeding.np_random(seeds[i])
         self._reset_envs(np.flatnonzero(mask), options)
-        return self._obs.copy(), self._info()
+        return self._obs.copy(), self._info(mask)
 
     def reset_envs(
         self, indices: Sequence[int], options: dict | None = None
@@ -346,13 +347,16 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             self._ref[envs] = ref
             # A fresh episode is neither rewarded nor terminated yet; keep the step's values.
 
-    def _info(self) -> dict[str, Any]:
+    def _info(self, fresh: np.ndarray | None = None) -> dict[str, Any]:
+        """Every sub-env's info; the ``_key`` masks are ``fresh`` (the sub-envs a masked reset
+        reset, as Gymnasium's vector envs mark them) or all true."""
         info = self.task.info(self.sim, self._ref)
         if self.variant.randomised:
             info.update({key: value.copy() for key, value in self._condition_info.items()})
+        fresh = self._all_true if fresh is None else fresh
         for key in list(info):
             # A fresh mask each: a caller editing one must not change another, nor the next reset.
-            info["_" + key] = np.ones(self.num_envs, dtype=bool)
+            info["_" + key] = fresh.copy()
         return info
 
     def _record(self, envs: np.ndarray) -> None:
