@@ -173,12 +173,15 @@ def require_scalar_action(action: Any) -> float:
     return float(require_action(action, 1)[0])
 
 
-def require_actions(actions: Any, num_envs: int, width: int = 1) -> np.ndarray:
+def require_actions(
+    actions: Any, num_envs: int, width: int = 1, ignored: np.ndarray | None = None
+) -> np.ndarray:
     """A vector env's actions as a float64 array of shape ``(num_envs, width)``, or a
     ``ValueError`` naming the expected shape: the batch of :func:`require_action`'s actions.
     For one actuator per env ``(num_envs,)`` is accepted too. Refused: other shapes (a
     transposed ``(1, num_envs)`` included), strings, booleans, complex or object values,
-    NaN/inf."""
+    NaN/inf, except in the rows ``ignored`` marks (sub-envs this step resets and whose
+    actions it ignores, as Gymnasium's vector envs do), which come back as 0."""
     m, n = num_envs, width
     if type(actions) is np.ndarray and actions.shape == (m, n) and actions.dtype.kind == "f":
         a = actions.astype(np.float64)
@@ -192,6 +195,8 @@ def require_actions(actions: Any, num_envs: int, width: int = 1) -> np.ndarray:
     if a.shape != (m, n):
         raise ValueError(f"actions have shape {a.shape}: {expected}")
     a = a.astype(np.float64)
+    if ignored is not None and ignored.any():
+        a[ignored] = 0.0
     if not np.isfinite(a).all():
         i, j = (int(k[0]) for k in np.nonzero(~np.isfinite(a)))
         where = f"{i}" if n == 1 else f"{i}, {j}"

@@ -104,6 +104,25 @@ def test_a_masked_reset_marks_only_the_reset_sub_envs_info_as_gymnasiums_sync_en
     assert ours.reset()[1]["_time_s"].all()
 
 
+@pytest.mark.parametrize("env_id", ["SMATracking-v0", "SMAMultiplexed-v0"])
+def test_the_ignored_action_of_a_sub_env_that_restarts_may_be_nan_as_in_gymnasiums_sync_env(env_id):
+    """NEXT_STEP: the step after an episode ends ignores that sub-env's action (Gymnasium's
+    sync env never passes it on), so a policy's NaN there is no error; elsewhere it is."""
+    ours = native(env_id, 2, max_episode_steps=2)
+    theirs = gym.make_vec("sma_gym:" + env_id, num_envs=2, vectorization_mode="sync", max_episode_steps=2)
+    zeros = np.zeros(ours.action_space.shape, dtype=np.float32)
+    nan = np.full_like(zeros, np.nan)
+    for env in (ours, theirs):
+        env.reset(seed=0)
+        env.step(zeros)
+        *_, truncated, _ = env.step(zeros)
+        assert truncated.all()
+    (a, ra, *_), (b, rb, *_) = ours.step(nan), theirs.step(nan)
+    assert np.array_equal(a, b) and np.array_equal(ra, rb) and not ra.any()
+    with pytest.raises(ValueError, match=r"actions\[0.*nan"):
+        ours.step(nan)
+
+
 def test_gymnasiums_vector_observation_wrappers_run_on_the_native_vector_env():
     from gymnasium.wrappers.vector import (
         DtypeObservation,

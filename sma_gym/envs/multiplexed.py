@@ -424,7 +424,7 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
 
     def step(self, actions):
         m, n = self.num_envs, self.n
-        a = require_actions(actions, m, n)
+        a = require_actions(actions, m, n, ignored=self._ended)
         self._unstarted.require_none()
         restart = self._ended.copy()
         duty = self.duty_for(a)

@@ -282,7 +282,7 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
             self._record(envs)
 
     def step(self, actions):
-        a = require_actions(actions, self.num_envs)
+        a = require_actions(actions, self.num_envs, ignored=self._ended)
         self._unstarted.require_none()
         restart = self._ended.copy()
         if restart.any() and self.autoreset_mode == AutoresetMode.DISABLED:
