@@ -173,9 +173,7 @@ def require_scalar_action(action: Any) -> float:
     return float(require_action(action, 1)[0])
 
 
-def require_actions(
-    actions: Any, num_envs: int, width: int = 1, ignored: np.ndarray | None = None
-) -> np.ndarray:
+def require_actions(actions: Any, num_envs: int, width: int = 1, ignored: np.ndarray | None = None) -> np.ndarray:
     """A vector env's actions as a float64 array of shape ``(num_envs, width)``, or a
     ``ValueError`` naming the expected shape: the batch of :func:`require_action`'s actions.
     For one actuator per env ``(num_envs,)`` is accepted too. Refused: other shapes (a

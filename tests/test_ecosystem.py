@@ -370,6 +370,24 @@ def test_unknown_kwargs_raise_value_error_naming_them(make):
         make()
 
 
+@pytest.mark.parametrize("env_id", sma_gym.ENV_IDS)
+def test_the_control_period_cannot_be_changed_after_make_where_it_would_do_nothing(env_id):
+    """The simulator steps with the period it was built with: setting the attribute on an env,
+    through a wrapper or on a native vector env was accepted and ignored."""
+    env = gym.make(f"sma_gym:{env_id}", control_period_s=0.005)
+    vec = native(env_id, 2, control_period_s=0.005)
+    for set_it in (
+        lambda: setattr(env.unwrapped, "control_period_s", 0.001),
+        lambda: env.set_wrapper_attr("control_period_s", 0.001),
+        lambda: setattr(vec, "control_period_s", 0.001),
+    ):
+        with pytest.raises(AttributeError, match=r"control_period_s = 0.001: fixed when the env is made"):
+            set_it()
+    assert env.unwrapped.control_period_s == vec.control_period_s == 0.005
+    env.reset(seed=0)
+    assert env.step(env.action_space.sample())[-1]["time_s"] == pytest.approx(0.005)
+
+
 def test_pprint_registry_lists_the_four_ids_in_one_group():
     text = gym.pprint_registry(disable_print=True)
     groups = [block for block in text.split("=====") if any(i in block for i in sma_gym.ENV_IDS)]

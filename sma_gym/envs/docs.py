@@ -139,7 +139,9 @@ MODEL_CHANGE = """
       argument"), which is how tools probe a constructor: TorchRL's `GymEnv` can build every
       id (it passes `frameskip` and drops it on that `TypeError`). The native vector envs'
       `_key` info masks after a masked reset are true only for the sub-envs it reset, as in
-      Gymnasium's `SyncVectorEnv` (they were all true).
+      Gymnasium's `SyncVectorEnv` (they were all true); a restarting sub-env's ignored
+      action may be NaN, as there. `control_period_s` is read-only after make (setting it
+      was accepted and changed nothing).
     """
 
 ROBUST_MODEL_CHECK = """

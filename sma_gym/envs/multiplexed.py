@@ -28,7 +28,15 @@ from sma_gym.electrical.multiplexer import SCHEMES, Multiplexer
 from sma_gym.envs import ImportableSpec, docs, task
 from sma_gym.envs import references as refs
 from sma_gym.envs.render import EpisodeRendering
-from sma_gym.envs.single import TRACKING, Settings, SMAEnv, keyword_settings, spell_out_settings, with_settings
+from sma_gym.envs.single import (
+    TRACKING,
+    MadeWith,
+    Settings,
+    SMAEnv,
+    keyword_settings,
+    spell_out_settings,
+    with_settings,
+)
 from sma_gym.envs.task import UnstartedEnvs
 from sma_gym.envs.vector import BUILT_FROM, reset_arguments
 from sma_gym.simulator import Simulator
@@ -68,7 +76,7 @@ def reference_specs(options: dict[str, Any], n: int, also: tuple[str, ...] = ())
     return list(specs)
 
 
-class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
+class SMAMultiplexedEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
     __doc__ = docs.env_doc(
         "n SMA actuators sharing one PWM (``SMAMultiplexed-v0``).",
         Description="""
@@ -171,7 +179,6 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
         self.action_space = spaces.Box(-1.0, 1.0, shape=(self.n,), dtype=np.float32)
         self.feature_names = task.FEATURES[task.OBS_POSITION]
         self.duty_range = task.DutyRange(0.0, self.multiplexer.duty_max)
-        self.control_period_s = self.settings.control_period_s
         self.position_scale_m = float(self.sim.usable_stroke_m[0])
         self.resistance_scale_ohm = float(self.sim.cold_resistance_ohm[0])
         self._actuators = np.arange(self.n, dtype=np.int64)
@@ -259,7 +266,7 @@ class SMAMultiplexedEnv(EpisodeRendering, ImportableSpec, gym.Env):
 spell_out_settings(SMAMultiplexedEnv.__init__, _SETTINGS)
 
 
-class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
+class SMAMultiplexedVectorEnv(MadeWith, ImportableSpec, VectorEnv):
     __doc__ = docs.env_doc(
         "``num_envs`` multiplexed banks simulated as one batch (the native vector env of ``SMAMultiplexed-v0``).",
         Description="""
@@ -335,7 +342,6 @@ class SMAMultiplexedVectorEnv(ImportableSpec, VectorEnv):
         bank = self._bank
         self.n, self.scheme, self.multiplexer = bank.n, bank.scheme, bank.multiplexer
         self.settings, self.duty_range, self.feature_names = bank.settings, bank.duty_range, bank.feature_names
-        self.control_period_s = bank.control_period_s
         self.metadata = dict(self.metadata, render_fps=max(1, round(1.0 / self.control_period_s)))
         n, m = self.n, self.num_envs
         mux = self.multiplexer

@@ -234,7 +234,26 @@ def reset_actuator(
     return condition
 
 
-class SMAEnv(EpisodeRendering, ImportableSpec, gym.Env):
+class MadeWith:
+    """An env's settings as made (:class:`Settings`), read-only: the simulator and the spaces
+    were built from them, so changing one afterwards would change nothing it does."""
+
+    settings: Settings
+
+    @property
+    def control_period_s(self) -> float:
+        """Simulated seconds per step [s]: the ``control_period_s`` kwarg, fixed at make."""
+        return self.settings.control_period_s
+
+    @control_period_s.setter
+    def control_period_s(self, value: Any) -> None:
+        raise AttributeError(
+            f"control_period_s = {value!r}: fixed when the env is made (its simulator steps "
+            f"{self.settings.control_period_s!r} s); make another env: gym.make(id, control_period_s=...)"
+        )
+
+
+class SMAEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
     """Base of the single-actuator envs (one per :class:`Variant`; see the subclasses).
 
     Besides the Gymnasium API: :meth:`reference_description`, ``condition`` (robustness:
@@ -272,7 +291,6 @@ class SMAEnv(EpisodeRendering, ImportableSpec, gym.Env):
         self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
         self.feature_names = task.FEATURES[variant.observation]
         self.duty_range = variant.duty_range
-        self.control_period_s = settings.control_period_s
         self._set_scales()
         self._unstarted = UnstartedEnvs(1, vector=False)
         self._duty = np.zeros((1, 1))

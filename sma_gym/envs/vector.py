@@ -23,6 +23,7 @@ from sma_gym.envs.conditions import CONDITION_INFO, CONDITION_INFO_KEYS, conditi
 from sma_gym.envs.render import EpisodeHistory, EpisodePlot, check_render_mode
 from sma_gym.envs.single import (
     TRACKING,
+    MadeWith,
     Settings,
     SMARobustEnv,
     Variant,
@@ -55,7 +56,7 @@ BUILT_FROM = (
 adds its own)."""
 
 
-class SMAVectorEnv(ImportableSpec, VectorEnv):
+class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
     __doc__ = docs.env_doc(
         "``num_envs`` single-actuator envs of one variant, simulated as one batch.",
         Description="""
@@ -191,7 +192,6 @@ class SMAVectorEnv(ImportableSpec, VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.feature_names = task.FEATURES[variant.observation]
         self.duty_range = variant.duty_range
-        self.control_period_s = self.settings.control_period_s
         n = self.num_envs
         self._all_envs = np.arange(n, dtype=np.int64)
         self._obs = np.zeros((n, len(self.feature_names)), dtype=np.float32)
