@@ -8,6 +8,11 @@ reference renders every 20th step to keep the run short) and prints the ratio.
 
 Goal (issue 15): >= 30 frames/s.
 
+It also renders 4 sub-envs of the native vector env (``vectorization_mode=
+"vector_entry_point"``) against Gymnasium's ``SyncVectorEnv`` of the same env (one figure
+per sub-env there), step included, and prints that ratio: the native env's frames are no
+slower (with one figure shared by its sub-envs they were 4x slower, 2026-12-07).
+
     python benchmarks/bench_render.py [--json] [--steps 1000]
 """
 
@@ -45,13 +50,34 @@ def frames_per_second(steps: int, every: int = 1, full_redraw: bool = False) -> 
     return frames / elapsed
 
 
+def vector_frames_per_second(mode: str, steps: int, num_envs: int = 4) -> float:
+    """Sub-env frames/s of a vector env rendered every step (steps included)."""
+    env = gym.make_vec("sma_gym:SMATracking-v0", num_envs=num_envs, vectorization_mode=mode, render_mode="rgb_array")
+    env.reset(seed=0)
+    env.render()  # builds the figures
+    actions = np.full((num_envs, 1), 0.4, dtype=np.float32)
+    start = time.perf_counter()
+    for _ in range(steps):
+        env.step(actions)
+        frames = env.render()
+    elapsed = time.perf_counter() - start
+    assert len(frames) == num_envs and all(f.shape == (640, 640, 3) for f in frames)
+    env.close()
+    return steps * num_envs / elapsed
+
+
 def run(steps: int) -> dict[str, float]:
     fast = frames_per_second(steps)
     reference = frames_per_second(steps, every=20, full_redraw=True)
+    native = vector_frames_per_second("vector_entry_point", steps // 5)
+    sync = vector_frames_per_second("sync", steps // 5)
     return {
         "frames/s (cached background, blitting)": fast,
         "frames/s (full redraw each frame)": reference,
         "ratio": fast / reference,
+        "vector frames/s, native (4 sub-envs)": native,
+        "vector frames/s, Gymnasium sync": sync,
+        "ratio native / sync": native / sync,
     }
 
 
