@@ -285,6 +285,15 @@ def test_torchrl_gym_env_builds_every_id_and_passes_its_spec_check():
     env = GymEnv("sma_gym:SMATracking-v0", num_envs=4)
     check_env_specs(env)
     env.close()
+    # Our native vector env, wrapped: TorchRL takes SAME_STEP (or DISABLED), as docs/training.md says.
+    from torchrl.envs import GymWrapper
+
+    vec = native("SMATracking-v0", 4, autoreset_mode="SameStep", max_episode_steps=5)
+    env = GymWrapper(vec)
+    check_env_specs(env)
+    rollout = env.rollout(12, break_when_any_done=False)
+    assert rollout["next", "done"].sum() == 8  # each sub-env ended twice and went on
+    env.close()
 
 
 # --- item 5: the SB3 adapter reports episodes -----------------------------------------------------------
