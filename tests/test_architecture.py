@@ -14,7 +14,9 @@ whose ``__init__`` merely re-exports).
 from __future__ import annotations
 
 import ast
+import os
 import subprocess
+import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -186,3 +188,55 @@ def test_python_dash_m_sma_gym_is_the_sma_gym_command_and_says_its_version():
 
     done = subprocess.run([sys.executable, "-m", "sma_gym", "--version"], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and done.stdout.strip() == f"sma-gym {__version__}", done.stderr
+
+
+# --- the numba cache follows every compiled source ---------------------------------------------
+
+
+def test_the_compiled_sources_are_every_module_that_defines_compiled_code_and_the_layout():
+    """``_jit.COMPILED_SOURCES`` keys the cache: a module that defines a compiled function and
+    is missing from it would be cached stale after an edit of it alone."""
+    from sma_gym._jit import COMPILED_SOURCES, PACKAGE_DIR
+
+    defining = {
+        path.relative_to(PACKAGE_DIR).as_posix() for path in PACKAGE_DIR.rglob("*.py") if "@njit" in path.read_text()
+    }
+    assert set(COMPILED_SOURCES) == defining | {"_jit.py", "core/layout.py"}
+
+
+STALE_PROBE = """
+import sys
+sys.path.insert(0, sys.argv[1])
+import sma_gym._jit as jit
+if sys.argv[2] == "tracked":
+    from pathlib import Path
+    jit.track_sources(Path(sys.argv[1]) / "pkg", ("a.py", "b.py"))
+from pkg.b import g
+print(g())
+"""
+
+
+def test_a_cached_function_recompiles_when_a_function_it_calls_changes_in_another_file(tmp_path):
+    """numba keys a cached function on its own file only, though the functions it calls from
+    other files are compiled into it: edit only the callee's file and the caller ran the old
+    code from its cache (numba 0.68.1: 11 below, not 12). sma_gym tracks its own sources
+    this way at import."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    callee = "from sma_gym._jit import njit\nVALUE = {}\n\n@njit(cache=True)\ndef f():\n    return VALUE\n"
+    (pkg / "a.py").write_text(callee.format(1))
+    (pkg / "b.py").write_text(
+        "from sma_gym._jit import njit\nfrom pkg.a import f\n\n@njit(cache=True)\ndef g():\n    return f() + 10\n"
+    )
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+
+    def g() -> str:
+        cmd = [sys.executable, "-c", STALE_PROBE, str(tmp_path), "tracked"]
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env)
+        assert out.returncode == 0, out.stderr
+        return out.stdout.strip()
+
+    assert g() == "11"
+    (pkg / "a.py").write_text(callee.format(2))
+    assert g() == "12"
