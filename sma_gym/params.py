@@ -791,7 +791,7 @@ class ActuatorParams:
         if not isinstance(data, dict):
             raise ValueError(f"actuator parameters = {data!r}: expected a JSON object")
         kwargs: dict[str, Any] = {}
-        groups = {"wire": Wire, "mechanism": Mechanism, "convection": Convection, "driver": Driver, "sensors": Sensors}
+        groups = _PARTS
         for key, value in data.items():
             if key in groups:
                 known = {f.name for f in dataclasses.fields(groups[key])}

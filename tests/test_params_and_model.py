@@ -169,6 +169,50 @@ def test_every_effect_declares_units_bounds_and_an_off_value_inside_them():
             assert p.lower <= p.typical <= p.upper and p.typical != p.off
 
 
+UNIT_OF_SUFFIX = {
+    "_k": "K",
+    "_share": "-",
+    "_j_kg": "J/kg",
+    "scale": "-",
+    "_w_m2_k2": "W/(m^2 K^2)",
+    "_k_j": "K/J",
+    "_s": "s",
+    "_n": "N",
+    "_m": "m",
+    "_ohm": "ohm",
+}
+"""How an effect parameter's name ends -> its unit (names carry their units)."""
+
+
+def test_every_effect_parameter_is_named_in_its_unit():
+    """A wrong unit ("W/m" for a conductance_w_k) passed the test above, which asks only for
+    one: the name's ending must give the declared unit (a new ending goes into the table)."""
+    for effect in EFFECTS.values():
+        for p in effect.parameters:
+            endings = [e for e in UNIT_OF_SUFFIX if p.name.endswith(e)]
+            assert endings, f"{effect.name}.{p.name}: its name ends in no unit of UNIT_OF_SUFFIX"
+            assert p.unit == UNIT_OF_SUFFIX[max(endings, key=len)], (effect.name, p.name, p.unit)
+
+
+BOUND_EXEMPT = {("Driver", "end_of_travel_m"): "inf (no cut) is allowed; Driver.validate checks the rest"}
+
+
+def test_every_numeric_parameter_has_a_bound_row():
+    """A field without a Bound row takes NaN, inf, 1e6 or -500 silently: every numeric field
+    of every part has one, or an exemption that says how it is checked."""
+    import dataclasses
+
+    from sma_gym.params import _PARTS
+
+    for part in _PARTS.values():
+        bounded = {name for bound in part._BOUNDS for name in bound.fields}
+        for f in dataclasses.fields(part):
+            if isinstance(f.default, bool) or not isinstance(f.default, (int, float)):
+                continue
+            assert f.name in bounded or (part.__name__, f.name) in BOUND_EXEMPT, f"{part.__name__}.{f.name}"
+    assert all(any(f.name == field for f in dataclasses.fields(_PARTS[p.lower()])) for p, field in BOUND_EXEMPT)
+
+
 def test_effect_values_outside_bounds_are_rejected():
     with pytest.raises(ValueError, match=r"coulomb_friction\.force_n"):
         EffectSet.of({"coulomb_friction": {"force_n": 99.0}})

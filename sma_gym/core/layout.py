@@ -17,11 +17,17 @@ How to add a parameter
 ----------------------
 1. ``sma_gym/params.py``: a field with a default and a docstring (symbol, unit, value,
    source) on the part it belongs to (:class:`~sma_gym.params.Wire`, ``Driver``, ...), and
-   its range in that part's ``validate()``. JSON round trip, presets and
-   ``with_changes("part.field")`` follow from the dataclass.
-2. This module: a ``P_*`` constant (append it before ``N_PARAMS``; nothing depends on the
-   order). Derived quantities (areas, time constants, scaled coefficients) get their own
-   constant and are computed once at packing time, not in the kernel.
+   its range as a ``Bound`` row of that part's ``_BOUNDS`` table (a test checks that every
+   numeric field has one). Presets and ``with_changes("part.field")`` follow from the
+   dataclass. Model files name every parameter and a file without one is refused (a 0.5 mm
+   wire's file without its diameter once ran as the 0.3 mm wire), so files saved before the
+   field existed stop loading: give it a default that reproduces the model without it,
+   accept its absence in ``ActuatorParams.from_dict`` as the migration there does for the
+   phases' expansion coefficients, and add it to ``sma_gym/models/*.json``.
+2. This module: a ``P_*`` constant after the last one, and ``N_PARAMS`` moved to one past
+   it (nothing depends on the order of the others). Derived quantities (areas, time
+   constants, scaled coefficients) get their own constant and are computed once at packing
+   time, not in the kernel.
 3. ``sma_gym/simulator.py`` :func:`~sma_gym.simulator.pack_params`: one line
    ``col[L.P_NEW] = <part>.<field>`` (or the derived value).
 4. Compiled code: read ``params[i, P_NEW]`` where the term is computed (``core/kernel.py``
@@ -29,8 +35,10 @@ How to add a parameter
    which take scalars so they can be tested on their own; a constant of the implicit
    mechanics step becomes a field of ``physics.mechanics.WireConstants``). Import the
    constant by name.
-5. Delete the numba cache (``find . -name '*.nbi' -o -name '*.nbc' | xargs rm``): modules
-   that import layout constants keep the old values in their cached machine code.
+5. Nothing to delete: a cached compiled function is keyed on every file of
+   ``sma_gym._jit.COMPILED_SOURCES`` (the modules that define compiled code, and this
+   one), so any edit of them recompiles it at the next import (25-40 s). A new module
+   with compiled functions goes into that list (a test checks it).
 6. If an env or user should see it: a named view on ``Simulator`` (parameters) or a name
    in :data:`STATE_NAMES` (state; then it is recordable by ``Simulator.run`` too).
 
@@ -39,8 +47,14 @@ How to add an effect
 An effect is an optional term that is off (vanishes) at its *off* value.
 
 1. ``sma_gym/effects/__init__.py``: declare it (name, parameters with unit, off value,
-   bounds, forms, the outputs it changes). The diagnosis workflow picks it up as a
-   candidate from there.
+   bounds, forms, the outputs it changes; a parameter's name ends in its unit, as
+   ``force_n``, and a test checks the two agree). The diagnosis workflow picks it up as a
+   candidate from there, so a new effect changes what every diagnosis weighs: if it is
+   nearly degenerate with a refitted nominal parameter (a loss proportional to T - T_amb
+   is a convection level), declare that in ``diagnosis.fitting.DEGENERATE_WITH_NOMINAL``
+   and ``diagnosis.workflow.SEPARATING_EXPERIMENTS``, expect
+   ``tests/test_diagnosis.py``'s every-effect test to say whether it can be named, and
+   rerun the benchmarks and the twin (docs/diagnosis.md) before quoting their figures.
 2. Its parameters go through steps 2-4 above; in :func:`~sma_gym.simulator.pack_params`
    read them with ``fx.value("<effect>", "<parameter>")``. If it has several forms, the
    physics module that implements the term maps each form name to a numeric code
@@ -48,7 +62,11 @@ An effect is an optional term that is off (vanishes) at its *off* value.
    stores ``FRICTION_FORMS[fx.form("coulomb_friction")]`` in a ``P_*_FORM`` field; a test
    checks that every declared form has its code.
 3. Write the term in the physics module it belongs to so that the off value makes it
-   vanish exactly (the report's model must stay bit for bit the same), and test that.
+   vanish exactly (the report's model must stay bit for bit the same):
+   ``tests/test_simulator.py`` pins the nominal model's numbers, so a term that does not
+   vanish fails there. A term in the heat balance goes into the sub-step's rate bound in
+   ``core/kernel.py`` too (it restates the balance to size the step), and the page of the
+   model (docs/model.md §4 or §2, and §11's table) describes it.
 4. A new state quantity (a filter stage, an accumulator): an ``S_*`` constant below, its
    start value in ``Simulator.reset``, and step 5 above.
 """
