@@ -325,8 +325,10 @@ def _stribeck_slide(
     t1 = t_pred
     corrected = False
     for attempt in range(4):
+        # The friction acts over the whole step, constant: theta of it at the step's end
+        # and 1 - theta at its start, which b_ext (divided by theta) does not carry.
         z, x1, s1, t1 = solve_step(
-            stick, x0, t_pred, z0, k_ext, b_ext - friction, wire, nodes, MAX_SPREAD_NODES, xi_old, hyst, n_nodes
+            stick, x0, t_pred, z0, k_ext, b_ext - friction / theta, wire, nodes, MAX_SPREAD_NODES, xi_old, hyst, n_nodes
         )
         if stick and attempt > 0:
             break
