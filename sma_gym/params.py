@@ -428,8 +428,10 @@ class Convection:
     h0_w_m2_k: float = 81.197
     """h0 [W/(m^2 K)] = 81.20 (natural convection; the report gives no value). Calibrated so
     that holding 5 mm at 10 V needs a duty of 0.06 on the heating branch (T4, fig. 6.4); see
-    ``python -m sma_gym.calibration``. Thin-wire natural convection plus radiation predicts
-    about 76 at 0.3 mm and 96 degC (Morgan 1975), in line."""
+    ``python -m sma_gym.calibration`` (81.205 on the code of 2026-12-07: 1e-4 apart, which
+    moves the holding duty by about as much, so the value and every figure measured with it
+    were kept). Thin-wire natural convection plus radiation predicts about 76 at 0.3 mm and
+    96 degC (Morgan 1975), in line."""
 
     h2_w_m2_k3: float = 1.5e-3
     """h2 [W/(m^2 K^3)] = 1.5e-3: sets the growth of h with temperature to about +20 % from
