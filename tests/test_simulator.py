@@ -652,7 +652,8 @@ def test_the_nominal_model_is_pinned():
             (out["position_m"][k, 0] * 1e3, out["temperature_c"][k, 0], out["resistance_ohm"][k, 0])
             for k in (499, 3499, 6499, 8499)
         ]
-        assert np.allclose(got, pinned, rtol=1e-6, atol=0.0), (mode, got)
+        # 1e-5: room for another LLVM's rounding; a 1e-4 W/K leak moves these by ~3e-3.
+        assert np.allclose(got, pinned, rtol=1e-5, atol=0.0), (mode, got)
 
 
 @pytest.mark.parametrize("name", sorted(EFFECTS))
