@@ -200,9 +200,31 @@ def test_history_wrapper_built_by_the_zoo_equals_the_one_train_py_builds():
     np.testing.assert_array_equal(outs[0], outs[1])
 
 
-def test_the_zoo_preprocesses_every_entry(tmp_path):
-    """RL Zoo's own reading of our files (rl_zoo3: the zoo extra, which the test extra installs)."""
+@pytest.fixture
+def zoo_experiment_manager():
+    """rl_zoo3's ``ExperimentManager``, with the zoo's global patch undone afterwards: importing
+    rl_zoo3 replaces Gymnasium's ``TimeLimit`` everywhere in the process (``rl_zoo3.gym_patches``,
+    which adds ``info["TimeLimit.truncated"]``), and a later test in the same worker compared
+    our native vector env's info with a sync env that then carried that key."""
+    import gymnasium.envs.registration as registration
+    import gymnasium.wrappers as wrappers
+    import gymnasium.wrappers.common as common
+
+    modules = (wrappers, common, registration)
+    saved = [module.__dict__.get("TimeLimit") for module in modules]  # registration has none
     from rl_zoo3.exp_manager import ExperimentManager
+
+    yield ExperimentManager
+    for module, value in zip(modules, saved):
+        if value is None:
+            module.__dict__.pop("TimeLimit", None)
+        else:
+            module.TimeLimit = value
+
+
+def test_the_zoo_preprocesses_every_entry(tmp_path, zoo_experiment_manager):
+    """RL Zoo's own reading of our files (rl_zoo3: the zoo extra, which the test extra installs)."""
+    ExperimentManager = zoo_experiment_manager
 
     for algo, env_id in ENTRIES:
         manager = ExperimentManager(
