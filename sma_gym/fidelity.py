@@ -349,11 +349,12 @@ def heating_cooling_dispute_figures() -> dict[str, float]:
     hold_w = target("A26").numbers[0] * p_10v_w
     constant_ratio = (p_5v_w - hold_w) / hold_w
     # Along fig. 6.4's line the loss grows with the position, L(x) = slope x P_10V; with equal
-    # heat per metre both ways, t = integral dx / net power from 10 % to 90 % of the stroke.
+    # heat per metre both ways, t = integral dx / net power from 10 % to 90 % of the stroke:
+    # each time below is scaled by the same (loss per metre / heat per metre), cancelled in the ratio.
     per_m_w = target("A27").numbers[0] * p_10v_w
     lo_m, hi_m = (f * target("A1").numbers[0] * 1e-3 for f in (0.1, 0.9))
-    heat_s_per = math.log((p_5v_w - per_m_w * lo_m) / (p_5v_w - per_m_w * hi_m))
-    cool_s_per = math.log(hi_m / lo_m)
+    heating_scaled = math.log((p_5v_w - per_m_w * lo_m) / (p_5v_w - per_m_w * hi_m))
+    cooling_scaled = math.log(hi_m / lo_m)
     implied = efficiency_dispute_figures()
     return {
         "power_5v_w": p_5v_w,
@@ -361,7 +362,7 @@ def heating_cooling_dispute_figures() -> dict[str, float]:
         "faster_constant_loss": constant_ratio,
         "loss_at_10_percent_w": per_m_w * lo_m,
         "loss_at_90_percent_w": per_m_w * hi_m,
-        "faster_along_line": cool_s_per / heat_s_per,
+        "faster_along_line": cooling_scaled / heating_scaled,
         "implied_loss_min_w": implied["implied_loss_min_w"],
         "slower_implied_loss": implied["implied_loss_min_w"] / (p_5v_w - implied["implied_loss_min_w"]),
         "similar_loss_w": p_5v_w / 2.0,
