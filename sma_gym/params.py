@@ -29,7 +29,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from sma_gym._validation import Bound, check_bounds, require_choice, require_range
-from sma_gym.physics.transformation import MINOR_LOOP_LAWS, WIDTH_PAIRINGS
+from sma_gym.core.layout import MAX_SPREAD_NODES
+from sma_gym.physics.transformation import MINOR_LOOP_LAWS, WIDTH_PAIRINGS, hysteron_nodes
 
 
 @dataclass(frozen=True)
@@ -354,6 +355,40 @@ class Wire:
         """Resistance of the extended martensitic wire at the reference temperature [ohm]."""
         return self.resistivity_martensite_ohm_m * self.length_m / self.area_m2
 
+    def hysterons(
+        self,
+        extra_spread_k: float = 0.0,
+        centre_form: str = "default",
+        min_width_share: float = 0.0,
+        widths_form: str = "default",
+    ) -> tuple[list[float], list[float], list[float], float]:
+        """The wire's hysterons, ``(shift_h, shift_c, weights, widening_k)`` of
+        :func:`sma_gym.physics.transformation.hysteron_nodes`: hysteron k heats from
+        ``A_s - widening_k / 2 + shift_h[k]`` (plus sigma / C_A) and cools from
+        ``M_s + widening_k / 2 + shift_c[k]``. The effects that reshape them enter as
+        arguments (``extra_spread_k`` adds to the wire's spread in quadrature); the one
+        derivation the simulator packs and the rest limit reads."""
+        return hysteron_nodes(
+            math.hypot(self.transformation_spread_k, extra_spread_k),
+            self.hysteron_width_spread,
+            min(self.austenite_start_c - self.martensite_finish_c, self.austenite_finish_c - self.martensite_start_c),
+            self.minor_loop_law,
+            centre_form,
+            MAX_SPREAD_NODES,
+            min(self.austenite_finish_c - self.austenite_start_c, self.martensite_start_c - self.martensite_finish_c),
+            self.hysteron_width_pairing,
+            min_width_share,
+            widths_form,
+        )
+
+    @property
+    def coldest_heating_start_c(self) -> float:
+        """A_s - widening / 2 + min_k shift_h[k] [degC], stress-free: where the coldest
+        hysteron's heating branch starts, i.e. where a spread wire starts to contract (about
+        16.6 K below A_s for the standard wire's 8 K spread; A_s itself without spread)."""
+        shift_h, _, _, widening_k = self.hysterons()
+        return self.austenite_start_c - 0.5 * widening_k + min(shift_h)
+
 
 @dataclass(frozen=True)
 class Mechanism:
@@ -366,8 +401,9 @@ class Mechanism:
 
     damping_n_s_m: float = 5.0
     """c [N s/m] = 5: viscous friction (§5.1 names it, gives no value). Our choice: damping
-    ratio about 0.2-0.3 of the wire/mass resonance (~200-270 Hz); it hardly matters below
-    100 Hz because the wire is much stiffer than the spring."""
+    ratio 0.18 (austenite, 250 Hz) to 0.28 (martensite, 160 Hz) of the wire/mass resonance
+    with the 8.8 g mass; it hardly matters below 100 Hz because the wire is much stiffer than
+    the spring."""
 
     spring_stiffness_n_m: float = 250.0
     """k [N/m] = 250: bias spring (Table 5.1)."""
@@ -678,9 +714,10 @@ class ActuatorParams:
         if self.convection.ambient_temperature_c >= self.highest_rest_temperature_c:
             raise ValueError(
                 f"Convection.ambient_temperature_c = {self.convection.ambient_temperature_c!r}: expected a value "
-                f"below the wire's stress-shifted austenite start A_s + sigma0 / C_A = "
-                f"{self.highest_rest_temperature_c:.1f} degC (Wire.austenite_start_c = {self.wire.austenite_start_c!r}), "
-                "where it rests cold and extended"
+                f"below the wire's stress-shifted transformation start (its coldest hysteron's, "
+                f"ActuatorParams.highest_rest_temperature_c = {self.highest_rest_temperature_c:.1f} degC; "
+                f"Wire.austenite_start_c = {self.wire.austenite_start_c!r}, "
+                f"Wire.transformation_spread_k = {self.wire.transformation_spread_k!r}), where it rests cold and extended"
             )
 
         # Convenience -----------------------------------------------------------------------
@@ -695,9 +732,13 @@ class ActuatorParams:
 
     @property
     def highest_rest_temperature_c(self) -> float:
-        """A_s + sigma0 / C_A [degC]: the heating branch's start at the rest stress, above which
-        the wire cannot rest fully martensitic (the surroundings must be colder)."""
-        return self.wire.austenite_start_c + self.rest_stress_pa / self.wire.stress_coefficient_austenite_pa_k
+        """Coldest heating start + sigma0 / C_A [degC]: where the first hysteron starts to
+        transform at the rest stress (:attr:`Wire.coldest_heating_start_c`), above which the
+        wire cannot rest fully martensitic (the surroundings must be colder). 61.1 degC for
+        the standard wire, whose 8 K spread starts it 16.6 K below A_s + sigma0 / C_A = 77.7
+        degC (that bound, used until 2026-12-07, let a reset at 77 degC contract 0.56 mm
+        unpowered)."""
+        return self.wire.coldest_heating_start_c + self.rest_stress_pa / self.wire.stress_coefficient_austenite_pa_k
 
     @property
     def rest_stress_pa(self) -> float:
@@ -931,7 +972,8 @@ def bench_05mm_ht() -> ActuatorParams:
     ``step01.csv`` only (``ramp01.csv`` held out) with sma-gym 0.1's play law, the sensor
     zero read off the rest segment:
 
-    - h0 = 40 W/(m^2 K) at 0.3 mm (30 at 0.5 mm), h2 in the standard ratio: the lower bound of
+    - h0 = 40 W/(m^2 K) at 0.3 mm (30 at 0.5 mm), h2 in the standard wire's ratio of then
+      (h2 / h0 = 1.5e-3 / 75.6 per K^2; the standard's h0 is 81.197 today): the lower bound of
       the plausible range; the fit wants the wire to heat even faster;
     - eps0 = 0.0189: a lightly loaded wire detwins only partly (16.5 mm on 0.96 m);
     - preload 0.2 N: also at its lower bound.
@@ -949,7 +991,9 @@ def bench_05mm_ht() -> ActuatorParams:
     Chosen, not identified: the package's minor-loop law; the report's Flexinol values for the
     stress coefficients, c_p and density; NiTi's expansion of each phase (the standard wire's);
     PWM at 1 kHz (the duty is commanded at 1 kHz); no end-of-travel cut; resistivities from the
-    README with the report's temperature coefficients (the README's 4.3 ohm/m fixes rho_M).
+    README (the README's 4.3 ohm/m fixes rho_M) with temperature coefficients of 1e-4 /K
+    (martensite; the standard wire's bound is 2e-4) and 1e-3 /K (austenite, the standard's);
+    the report gives none.
     """
     wire = Wire(
         diameter_m=0.5e-3,

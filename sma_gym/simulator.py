@@ -33,7 +33,6 @@ from sma_gym.params import ActuatorParams
 from sma_gym.physics.mechanics import FRICTION_FORMS
 from sma_gym.physics.resistance import wire_resistance
 from sma_gym.physics.thermal import CONVECTION_FORMS, LATENT_COOLING_FACTORS, SURROUNDINGS_FORMS
-from sma_gym.physics.transformation import hysteron_nodes
 
 PWM_MODES = ("averaged", "resolved")
 
@@ -150,16 +149,9 @@ def pack_params(
     row[L.P_LATENT] = latent
     row[L.P_LATENT_COOL] = latent * LATENT_COOLING_FACTORS[fx.form("latent_heat")]
     # The transformation_spread effect adds an independent spread: variances add.
-    spread_k = math.hypot(w.transformation_spread_k, fx.value("transformation_spread", "spread_k"))
-    shift_h, shift_c, weights, widening_k = hysteron_nodes(
-        spread_k,
-        w.hysteron_width_spread,
-        min(w.austenite_start_c - w.martensite_finish_c, w.austenite_finish_c - w.martensite_start_c),
-        w.minor_loop_law,
+    shift_h, shift_c, weights, widening_k = w.hysterons(
+        fx.value("transformation_spread", "spread_k"),
         fx.form("transformation_spread"),
-        L.MAX_SPREAD_NODES,
-        min(w.austenite_finish_c - w.austenite_start_c, w.martensite_start_c - w.martensite_finish_c),
-        w.hysteron_width_pairing,
         fx.value("minor_loop_width", "min_width_share"),
         fx.form("minor_loop_width"),
     )
@@ -375,8 +367,10 @@ class Simulator:
         """Put actuators (all, those where a boolean ``mask`` is True, or those at the
         indices in an integer ``mask``) at rest: cold, extended.
 
-        ``temperature_c`` starts them at another temperature, still fully martensitic
-        (must be below the stress-shifted A_s, i.e. a state the wire can rest in).
+        ``temperature_c`` starts them at another temperature, still fully martensitic: at
+        most where the coldest hysteron starts to transform at the rest stress (A_s + sigma0 /
+        C_A lowered by the spread: ``ActuatorParams.highest_rest_temperature_c``, with the
+        model's effects), i.e. a state the wire can rest in.
         """
         which = slice(None) if mask is None else np.asarray(mask)
         if mask is not None and which.dtype != bool and not np.issubdtype(which.dtype, np.integer):
@@ -388,11 +382,11 @@ class Simulator:
             t0 = t_amb
         else:
             t0 = np.broadcast_to(np.asarray(temperature_c, dtype=float), np.shape(t_amb))
-            limit = p[which, L.P_A_S] + p[which, L.P_SIGMA0] / p[which, L.P_C_A]
+            limit = self._rest_limit_c(which)
             if not np.all(np.isfinite(t0)) or np.any(t0 > limit) or np.any(t0 < -60.0):
                 raise ValueError(
                     f"temperature_c = {temperature_c!r}: expected a finite value between -60 degC and the "
-                    f"stress-shifted austenite start ({float(np.min(limit)):.1f} degC)"
+                    f"stress-shifted start of the wire's transformation ({float(np.min(limit)):.1f} degC)"
                 )
         s[which, :] = 0.0
         s[which, L.S_T] = t0
@@ -451,6 +445,26 @@ class Simulator:
     def has_noise(self) -> bool:
         """True if any actuator's sensors are noisy (then each step draws from ``rng``)."""
         return self._has_noise
+
+    def _rest_limit_c(self, which) -> np.ndarray:
+        """The warmest temperature at which the wire rests fully martensitic [degC]: where its
+        coldest hysteron starts to transform at the stress of its rest position there. The
+        warm wire's expansion slackens the spring a little (:meth:`_rest_position`), so this
+        lies a little below the ambient limit ``ActuatorParams.highest_rest_temperature_c``
+        (0.02 K for the standard wire)."""
+        p = self.params
+        rows = np.atleast_2d(p[which])
+        # Unused node rows are zero: mask them so they cannot lower the minimum.
+        used = np.arange(L.MAX_SPREAD_NODES)[None, :] < rows[:, L.P_N_NODES, None]
+        heat = rows[:, L.P_NODE_HEAT0 : L.P_NODE_HEAT0 + L.MAX_SPREAD_NODES]
+        ambient_limit = (
+            rows[:, L.P_A_S] + np.where(used, heat, np.inf).min(axis=1) + rows[:, L.P_SIGMA0] / rows[:, L.P_C_A]
+        )
+        # T = ambient_limit - beta (T - T_amb): the rest stress falls by k x0(T) / A, x0 linear in T.
+        t_amb = rows[:, L.P_T_AMB]
+        dx_dt = self._rest_position(which, t_amb + 1.0)
+        beta = -rows[:, L.P_K_SPRING] * dx_dt / (rows[:, L.P_AREA] * rows[:, L.P_C_A])
+        return (ambient_limit + beta * t_amb) / (1.0 + beta)
 
     def _rest_position(self, which, t0: np.ndarray) -> np.ndarray:
         """Static position of a martensitic wire at temperature t0 (thermal expansion only)."""

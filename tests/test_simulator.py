@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from sma_gym import ModelConfig, Multiplexer, Simulator, preset
+from sma_gym.core import layout as L
 from sma_gym.effects import EFFECTS
 from sma_gym.electrical.multiplexer import io_counts
 
@@ -841,6 +842,44 @@ def test_bad_constructor_arguments_are_named():
         Simulator().run(np.zeros(3), record=("warp",))
     with pytest.raises(ValueError, match="temperature_c"):
         Simulator().reset(temperature_c=200.0)
+
+
+@pytest.mark.parametrize("extra_spread_k", [0.0, 12.0])
+def test_a_warm_reset_rests_up_to_where_the_coldest_hysteron_starts_and_no_further(extra_spread_k):
+    """Until 2026-12-07 a warm reset was allowed up to A_s + sigma0 / C_A (77.7 degC for the
+    standard wire), where the spread wire's coldest hysteron has transformed for 16.6 K: a
+    reset at 77 degC contracted 0.56 mm in 3 ms with no power. The limit is now that
+    hysteron's start (with the model's own effects), where the wire stays martensitic and
+    at rest; 1 K above it is refused."""
+    model = ModelConfig(preset("standard"))
+    if extra_spread_k:
+        model = model.with_effect("transformation_spread", {"spread_k": extra_spread_k})
+    limit = model.actuator.highest_rest_temperature_c
+    assert limit == pytest.approx(61.14, abs=0.01)  # the wire's own hysterons: 16.6 K below 77.7
+    sim = Simulator(model)
+    with pytest.raises(ValueError, match=r"temperature_c = 77.0: .*start of the wire's transformation"):
+        sim.reset(temperature_c=77.0)
+    wire = model.actuator.wire
+    shift_h, _, _, widening_k = wire.hysterons(extra_spread_k)
+    start = wire.austenite_start_c - 0.5 * widening_k + min(shift_h)
+    ambient_limit = start + model.actuator.rest_stress_pa / wire.stress_coefficient_austenite_pa_k
+    assert (ambient_limit < limit - 5.0) if extra_spread_k else ambient_limit == pytest.approx(limit, abs=1e-9)
+    # The warm wire rests 69 um extended, which slackens the spring and lowers its start.
+    sim_limit = float(sim._rest_limit_c(slice(None))[0])
+    assert ambient_limit - 0.05 < sim_limit < ambient_limit
+    with pytest.raises(ValueError, match="temperature_c"):
+        sim.reset(temperature_c=sim_limit + 1.0)
+    sim.reset(temperature_c=sim_limit - 1e-9)
+    rest_m = float(sim.position_m[0])
+    out = sim.run(np.zeros(200), record=("position_m", "martensite_fraction"))
+    assert np.all(out["martensite_fraction"] == 1.0)
+    # Cooling takes back the expansion it started with, and no more.
+    assert rest_m < 0.0 and np.all((out["position_m"] >= rest_m - 1e-9) & (out["position_m"] <= 0.0))
+    # The limit is tight: with the wire's transformation starting 1 K colder after the same
+    # reset, the unpowered wire transforms (the old bound allowed 16.6 K).
+    sim.reset(temperature_c=sim_limit - 1e-9)
+    sim.params[:, L.P_NODE_HEAT0 : L.P_NODE_HEAT0 + L.MAX_SPREAD_NODES] -= 1.0
+    assert float(sim.run(np.zeros(5), record=("martensite_fraction",))["martensite_fraction"].min()) < 1.0
 
 
 def test_a_vanishing_quadratic_sag_gives_the_unsagged_current():

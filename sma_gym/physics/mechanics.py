@@ -7,9 +7,10 @@ Equations (report §5.1-5.3, docs/model.md §2-§3)::
     xi    = clip(xi_old, xi_C(T, sigma), xi_H(T, sigma))                    (see transformation.py)
 
 (*) is the report's rate law sigma' = D eps' + theta_T T' + Omega xi' with Omega = -D eps0,
-theta_T = -D alpha and eps = eps0 - x / l0, integrated in closed form (with Elahinia's
-D(xi) = xi D_M + (1 - xi) D_A, and each phase's own expansion, alpha(xi) = xi alpha_M +
-(1 - xi) alpha_A). At rest (x = 0, xi = 1, T = T_amb) it gives sigma0 =
+theta_T = -D alpha and eps = eps0 - x / l0 in its secant form, the exact integral while the
+modulus is fixed (with Elahinia's D(xi) = xi D_M + (1 - xi) D_A, and each phase's own
+expansion, alpha(xi) = xi alpha_M + (1 - xi) alpha_A; a varying D would add D'(xi) xi'
+times the elastic strain to the rate form, about 1 % of Omega xi'). At rest (x = 0, xi = 1, T = T_amb) it gives sigma0 =
 F_pre / A, which balances the spring preload.
 
 Why implicit, and why this is at least as robust as the report's §5.5
@@ -24,7 +25,8 @@ and the step reduces to one
 scalar equation r(z) = z - Z(z) = 0 for the new martensite fraction z. Z is non-increasing
 in z (more martensite -> lower stress and, with latent heat, higher temperature -> lower
 bounds), so r is strictly increasing with slope >= 1: exactly one root, bracketed before we
-start, found by Newton's method with a bisection safeguard to 1e-13. No smoothing is
+start, found by Newton's method with a bisection safeguard (to a residual below 1e-12 or a
+bracket narrower than 1e-15). No smoothing is
 needed, the cosine law stays exact, and the implicit step is unconditionally stable for the
 stiff wire (D_A A / l0 ~ 2e4 N/m against an 8.8 g mass: a 250 Hz mode). The step length is
 therefore limited only by accuracy (see ``core.kernel``), not by stability.

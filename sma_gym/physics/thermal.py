@@ -4,8 +4,9 @@
 
 with h(T) = h0 + h2 T^2 (T in degC, eq. 5.10). The last two terms are ours: P_mech, the
 power the wire delivers to the mechanism, closes the energy balance (it is ~0.5 % of P_el,
-the actuator's efficiency, §8); the latent-heat term is the ``latent_heat`` effect, zero by
-default as in the report.
+the actuator's efficiency, §8); the latent heat Delta_H is the wire's own (24.2 J/g, the
+datasheet's: ``Wire.latent_heat_j_kg``), which the report's model lacks, and the
+``latent_heat`` effect changes it.
 
 The convective part is integrated with the exponential (exact-for-constant-coefficient)
 Euler step, which is stable for any step length and any h: a thin wire under a strong fan
