@@ -329,7 +329,10 @@ def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
         "--max-rounds",
         type=int,
         default=3,
-        help="add at most this many effects, one per round, re-fitting everything found so far (default 3; 1 = one round)",
+        help=(
+            "at most this many rounds, each adding one effect (two when a pair is named) on top of everything "
+            "found so far, re-fitted (default 3; 1 = one round)"
+        ),
     )
     p.add_argument(
         "--threads",

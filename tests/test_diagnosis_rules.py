@@ -1454,3 +1454,22 @@ def test_the_corrected_model_runs_under_the_conditions_its_files_were_fitted_und
     assert both.differing_conditions == {"supply_voltage_v": {"bench15.csv": 15.0, "bench10.csv": 10.0}}
     assert "the files differ in supply_voltage_v (bench15.csv 15, bench10.csv 10)" in both.corrected_model.notes
     assert both.conditions == {"pwm_frequency_hz": 500.0}
+
+
+def test_an_effect_found_before_and_named_back_in_its_default_form_keeps_that_form():
+    """A round may name its candidate together with an effect found before in another form
+    (``_other_forms``). Only the other forms were recorded, so a latent heat found in its
+    asymmetric form and named back in its default one stayed 'asymmetric' for the next
+    round, which refitted it in a form no round had chosen, and the switch was in no
+    record."""
+    parameters = (
+        *fitting.NOMINAL,
+        *fitting.effect_parameters("latent_heat", "default"),
+        *fitting.effect_parameters("transformation_spread", "uniform"),
+    )
+    forms, switched = workflow._forms_carried({"latent_heat": "asymmetric"}, ["latent_heat"], parameters)
+    assert forms == {"latent_heat": "default", "transformation_spread": "uniform"}
+    assert switched == {"latent_heat": "default"}  # the new candidate's form is no switch
+    # Unchanged forms switch nothing.
+    forms, switched = workflow._forms_carried(forms, ["latent_heat", "transformation_spread"], parameters)
+    assert switched == {} and forms == {"latent_heat": "default", "transformation_spread": "uniform"}

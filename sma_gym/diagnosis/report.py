@@ -61,9 +61,7 @@ def write_report(
     if verdict == "effect":
         headline = f"**Missing effect: `{result.effect}`**"
     elif verdict == "effects":
-        headline = (
-            f"**Missing effects: {', '.join(f'`{e}`' for e in result.effect)}** (found in that order, one per round)"
-        )
+        headline = f"**Missing effects: {', '.join(f'`{e}`' for e in result.effect)}** (in the order found: one per round, two where a round named a pair)"
     elif verdict == "ambiguous":
         headline = f"**Ambiguous: {' or '.join(f'`{e}`' for e in result.effect)}**. To tell them apart: {result.separating_experiment}."
     elif verdict == "none":

@@ -82,8 +82,9 @@
 Without held-out files the last ``HOLDOUT_FRACTION`` (30 %) of every fitted file is held out
 (simulated from the start, but never fitted), and the report says so.
 
-6. Iterate (``max_rounds``): with the corrected model as the new nominal one, localise
-   again and refit the nominal parameters and every effect added so far jointly with each
+6. Iterate (``max_rounds``): starting where the last round ended (relative to the nominal
+   model as given; the localisation is the nominal model's, once), refit the nominal
+   parameters and every effect added so far jointly with each
    remaining candidate, until no candidate is supported, the verdict is ambiguous, or the
    held-out residual is within ``NOISE_STOP`` (2) times the noise. Every round's verdict,
    candidates and gap are kept (``Diagnosis.rounds``); the corrected model holds every
@@ -286,8 +287,9 @@ class Diagnosis:
     gap_by_file: dict[str, dict[str, dict[str, dict[str, float]]]] = field(default_factory=dict)
     """Per file (fit and held-out): RMS per output of the nominal and the corrected model."""
     carried: str | None = None
-    """The candidate the corrected model also carries when the last round was ambiguous (the
-    best held out of its rivals; not among ``effects_found``), else None."""
+    """The candidate the corrected model also carries when the last round was ambiguous (its
+    best supported candidate, the best held out of those that passed every bar; not among
+    ``effects_found``), else None."""
     conditions: dict[str, float] = field(default_factory=dict)
     """The sidecar conditions every file gives alike (supply, diameter, PWM, ambient), which
     the corrected model carries: the conditions its fits ran under."""
@@ -327,7 +329,8 @@ class Diagnosis:
 
 
 def require_max_rounds(name: str, value: object) -> int:
-    """A round count: at most one effect is added per round, so at most one round per effect."""
+    """A round count: a round that names anything adds at least one effect (a pair adds two),
+    so there are at most as many rounds as effects."""
     if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= len(EFFECTS):
         raise ValueError(f"{name} = {value!r}: expected an integer from 1 to {len(EFFECTS)}")
     return value
@@ -447,6 +450,10 @@ def diagnose(
         # The model this round leaves, and its held-out score: what the user gets if the
         # rounds end here (the round's table and staircase show it, not the model it started from).
         refit_adopted = False
+        # An effect found before may be named again in another form with this round's
+        # candidate (``_other_forms``), its default form included.
+        forms, moved = _forms_carried(forms, found, r.chosen.fit.parameters if named else ())
+        moved = {**(r.form_change or {}), **moved}
         if named or r.verdict == "ambiguous":
             model_r, offset_r, score_r = r.chosen.fit.model, r.chosen.fit.offset, r.chosen.heldout_score
         elif chosen_fit is None:
@@ -467,7 +474,7 @@ def diagnose(
                 "round": number,
                 "verdict": r.verdict,
                 "effect": r.effect,
-                "form_changed": None if r.form_change is None else dict(r.form_change),
+                "form_changed": moved or None,
                 # A round that named nothing but refitted the effects found to a better
                 # held-out score than the model it started from: that refit is kept.
                 "refit_adopted": refit_adopted,
@@ -490,16 +497,14 @@ def diagnose(
             if refit_adopted:
                 current, offset, chosen_fit = model_r, offset_r, r.ref.fit
             if r.verdict == "ambiguous":
-                # Every rival improves on the round's reference held out; only which one is
-                # open. So the best of them corrects the model (in any round: keeping a
-                # later round's reference threw that gain away, e.g. 42 % held out on the
-                # real bench), and stays out of the names found.
+                # The round's best passed every bar; only its name is open (its rivals may
+                # have missed one). So it corrects the model (in any round: keeping a later
+                # round's reference threw that gain away, e.g. 42 % held out on the real
+                # bench), and stays out of the names found.
                 current, offset, chosen_fit = model_r, offset_r, r.chosen.fit
                 carried = r.chosen.name
             break
         found.extend([r.effect] if isinstance(r.effect, str) else r.effect)
-        # A candidate named in another than its default form (``_other_forms``) keeps it.
-        forms.update({p.effect: p.form for p in r.chosen.fit.parameters if p.kind == "effect" and p.form != "default"})
         found_in.update({e: number for e in found if e not in found_in})
         current, offset, chosen_fit = r.chosen.fit.model, r.chosen.fit.offset, r.chosen.fit
         warm = chosen_fit.values_by_name()
@@ -563,7 +568,7 @@ def diagnose(
         )
     if carried is not None:
         rivals = last.effect if isinstance(last.effect, str) else " or ".join(last.effect or [])
-        notes += f"; carries {carried}, the best held out of round {len(rounds)}'s ambiguous {rivals}"
+        notes += f"; carries {carried}, the best supported of round {len(rounds)}'s ambiguous {rivals}"
     files = [*fit_traces, *heldout_traces]
     corrected, shared, differing = _corrected_model(nominal, current, notes, files)
 
@@ -1491,6 +1496,19 @@ def _block_t(best: Candidate, other: Candidate, held: fitting.Problem) -> float 
     return mean / (spread / math.sqrt(SEPARATION_BLOCKS))
 
 
+def _forms_carried(
+    forms: dict[str, str], found_before: Sequence[str], parameters: Sequence[fitting.FitParameter]
+) -> tuple[dict[str, str], dict[str, str]]:
+    """The forms of the effects in a named round's model: ``(forms, switched)``, where
+    ``switched`` holds the effects found before whose form this model changed. Every effect
+    keeps the form it was fitted in, the default one included: recording only the other
+    forms (until 2026-12-07) left an effect named back in its default form at its old one,
+    so the next round refitted it in a form no round had chosen."""
+    fitted = {p.effect: p.form for p in parameters if p.kind == "effect"}
+    switched = {e: f for e, f in fitted.items() if e in found_before and f != forms.get(e, "default")}
+    return {**forms, **fitted}, switched
+
+
 def _at_bounds(fit: fitting.Fit) -> list[str]:
     """Fitted parameters that ended at a bound: a finding (a missing effect may hide there)."""
     out = []
@@ -1559,7 +1577,9 @@ def data_notes(traces: Sequence[MeasuredTrace]) -> list[str]:
         if first_on.size and first_on[0] < fitting.MIN_REST_SAMPLES:
             notes.append(
                 f"{name}: heated from row {first_on[0] + 1} on, with no rest before it; every simulation starts from "
-                "a wire at rest at the ambient temperature and the sensor zero is then fitted: if the file was cut "
+                "a wire at rest at the ambient temperature, and the sensor zero is then fitted (one shared by the fitted "
+                "files without a rest; a held-out file without one gets it, or 0 where every fitted file has a rest): "
+                "if the file was cut "
                 "in the middle of a run, cut it where the wire is at rest"
             )
         steps = np.diff(np.asarray(trace.t, dtype=float))
