@@ -12,7 +12,11 @@ simulation, see ``sma-gym evaluate``):
   report's PID removes its steady-state error within seconds ("settling time is quite
   slow", §6.1, Table 6.1), which with Ki = 0.8 per metre-second would take about 20
   minutes; LabVIEW's discrete accumulator sums the error per sample. So the integral is
-  Ki * sum(e) = Ki * f_loop * integral(e dt), i.e. Ki = 800 /(m s) at 1 kHz.
+  Ki * sum(e) = Ki * f_loop * integral(e dt), i.e. Ki = 800 /(m s) at 1 kHz. The sum is
+  per control step, so at another step the integral's gain in time scales with the loop
+  rate: at the envs' default 10 ms the PID's is 80 /(m s) and VSC4's lambda_I 0.025 /s, ten
+  times weaker than in the report's loop (the harness runs the controllers at 1 ms; the
+  residual agents' base controllers at their env's step, as they were trained).
 * Derivatives (PID's Kd = 10, VSC's lambda = 0.0125) act on de/dt in m/s: per-sample
   differences would make them negligible, but the report's tuning trades overshoot against
   them (§6.1, §6.4).
@@ -59,9 +63,10 @@ Identified from one number of Table 6.1 (row B9): VSC2, whose proportional band 
 1 mm wide (§6.3), overshoots 0.381 mm, which a quasi-static wire can only do through lag
 in the loop. With the report's loop timing (§3.3-3.4: 1 kHz loop, the duty latched once per
 500 Hz PWM period, the position sampled at the period's end; the envs'
-``pwm_mode="resolved"``) and the sensor's 100 Hz filter, 11 Hz gives 0.37 mm, and with it
-the other nine overshoots of Table 6.1 and VSC1's oscillation (rows B5, B6, B25, B26, B29,
-Q4, 7k). Why here and not in the sensor's hardware filter (§3.1, also without a number):
+``pwm_mode="resolved"``) and the sensor's 100 Hz filter, 11 Hz gave 0.37 mm when it was
+identified (0.317 mm on today's model, ``sma-gym evaluate --experiments 6.1``), and with it
+the other nine overshoots of Table 6.1 and VSC1's oscillation (rows B5, B6, B25, B29, Q4,
+7k; B26 too then, lost since: VSC1 + FF's step now creeps instead of oscillating). Why here and not in the sensor's hardware filter (§3.1, also without a number):
 the report filters that one against the MOSFET's switching noise and still samples late in
 the period because the noise sits at the start of each pulse (§3.4), which a 14 ms filter
 would smear over the whole period; this one has to tame the derivative terms (Kd = 10,

@@ -32,7 +32,10 @@ over the same window. Step RMS over the whole run. Baselines run at the report's
 with the PWM resolved (``pwm_mode="resolved"``: the report's FPGA latches the duty once per
 PWM period and samples the position at the period's end, §3.3-3.4, so a sample reaches the
 wire 2 ms later) and their position filter at 11 Hz (docs/model.md §10); a trained agent at the control period and PWM mode it
-was trained with. Sensor noise: 2 um (the report's
+was trained with. Two kinds of baseline keep the controllers' default 50 Hz filter and the
+env's averaged PWM, at 1 kHz: the self-sensing readers (fed by the resistance, whose
+loop the report does not time) and the controllers of the multiplexed bank; their
+comparisons with the sensor-fed controllers differ in filter and PWM timing too. Sensor noise: 2 um (the report's
 controllers filter their input against noise, so there should be some).
 """
 
@@ -79,8 +82,9 @@ DEFAULT_SEEDS = (0, 1, 2)
 BASELINE_PERIOD_S = 1e-3
 OSCILLATION_P2P_M = 0.1e-3
 BASELINE_ENV_KWARGS = {"control_period_s": BASELINE_PERIOD_S, "pwm_mode": "resolved"}
-"""The report's controllers run with its loop timing: a 1 kHz loop, the PWM resolved (and
-their position filter at ``REPORT_FILTER_CUTOFF_HZ``, docs/model.md §10)."""
+"""The report's sensor-fed controllers run with its loop timing: a 1 kHz loop, the PWM
+resolved (and their position filter at ``REPORT_FILTER_CUTOFF_HZ``, docs/model.md §10); the
+self-sensing and bank baselines do not (see the module docstring)."""
 
 TABLE_6_1 = {
     # controller: (overshoot, steady-state error, max error heating, max error cooling) [mm]
