@@ -6,7 +6,7 @@ from sma_gym.model import ModelConfig, load_model
 from sma_gym.params import ActuatorParams, preset, preset_names
 from sma_gym.simulator import Simulator
 
-__version__ = "0.1.0"
+__version__ = "0.4.0.dev0"
 
 from sma_gym.envs import ENV_IDS, register_envs
 

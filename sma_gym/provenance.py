@@ -69,7 +69,7 @@ def results_differ(first: str, second: str, root: Path = SOURCE_ROOT) -> bool | 
 
 
 def describe(record: dict[str, Any] | None) -> str:
-    """One line for a report: ``sma-gym 0.1.0, commit 1a2b3c4d5e6f (with uncommitted changes)``."""
+    """One line for a report: ``sma-gym 0.4.0.dev0, commit 1a2b3c4d5e6f (with uncommitted changes)``."""
     if not record:
         return "sma-gym version not recorded"
     text = f"sma-gym {record.get('sma_gym_version', '?')}"

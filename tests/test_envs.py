@@ -630,6 +630,13 @@ def test_a_wire_shorter_than_the_cut_scales_and_draws_within_its_own_stroke():
         ValueError, match=r"reference 'report-step' its top level = 0.008: expected a position in \[0, 0.0058"
     ):
         env.reset(seed=0, options={"reference": "report-step"})
+    # Asked for at make, as a dict is: refused there, not at the first reset (until 2026-12-07).
+    for name, top in (("report-step", "0.008"), ("report-sine", "0.007")):
+        with pytest.raises(ValueError, match=rf"reference '{name}' its top level = {top}: expected a position"):
+            make("SMATracking-v0", model=ModelConfig(short), reference=name)
+        with pytest.raises(ValueError, match=rf"reference '{name}' its top level = {top}"):
+            make("SMAMultiplexed-v0", model=ModelConfig(short), reference=["step", name])
+    assert make("SMATracking-v0", reference="report-step").unwrapped.position_scale_m == pytest.approx(9.5e-3)
 
 
 def test_the_compiled_features_follow_their_documented_definitions_and_order():

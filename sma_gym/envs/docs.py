@@ -66,7 +66,9 @@ REWARD = """
     with `P_el` the mean electrical power of the step and `P_full = V^2 / R_cold` the power
     at duty 1 into the cold wire (the hot wire's resistance is lower, so at duty 1 the
     energy term reaches up to 1.21 `energy_weight` on the presets); `stroke` is the usable
-    stroke (the shorter of the driver's end-of-travel position and eps0 l0). The reward uses the true
+    stroke (`ActuatorParams.usable_stroke_m`: the shorter of the driver's end-of-travel
+    position and the loaded wire's reach, which is below eps0 l0 because the spring stretches
+    the austenite and the hot wire expands: 17.08 of 17.88 mm on the bench twin). The reward uses the true
     position, whatever the agent sees.
     """
 
@@ -117,7 +119,8 @@ RENDER_MODE = """
 INFO_KEYS = task.info_list(task.INFO)
 
 MODEL_CHANGE = """
-    * main (unreleased): **the dynamics changed under the same id.** The
+    * main (unreleased; the package reports 0.4.0.dev0, it reported 0.1.0 through 0.3 and
+      main until 2026-12-07): **the dynamics changed under the same id.** The
       nominal wire is issue 11's (docs/model.md): Preisach-type minor loops whose hysteron
       widths are spread (the wire moves back within about a kelvin of a reversal, where
       0.2's play law crossed the whole 15 K first), an 8 K spread of transformation
@@ -141,7 +144,9 @@ MODEL_CHANGE = """
       `_key` info masks after a masked reset are true only for the sub-envs it reset, as in
       Gymnasium's `SyncVectorEnv` (they were all true); a restarting sub-env's ignored
       action may be NaN, as there. `control_period_s` is read-only after make (setting it
-      was accepted and changed nothing).
+      was accepted and changed nothing). `reference="report-step"` or `"report-sine"` on a
+      model whose stroke cannot reach its fixed levels is refused at make, as a dict is (it
+      was refused only at the first reset).
     """
 
 ROBUST_MODEL_CHECK = """

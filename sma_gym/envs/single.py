@@ -184,12 +184,12 @@ class Settings:
         if not names:
             raise ValueError("reference = (): expected at least one reference name")
         for name in names:
-            if isinstance(name, dict):
-                # Validates every field, levels against the nominal model's stroke (reset
-                # checks again against the actuator's own).
-                refs.resolve(name, np.random.default_rng(0), m.actuator.usable_stroke_m, "step")
-            else:
+            if not isinstance(name, dict):
                 require_choice("reference", name, refs.NAMED)
+            # Validates every field, and the levels of a dict or of the report's fixed
+            # references against the nominal model's stroke (reset checks again against the
+            # actuator's own).
+            refs.resolve(name, np.random.default_rng(0), m.actuator.usable_stroke_m, "step")
         given = {key: a[key] for key in CONDITION_KWARGS if a.get(key) is not None}
         if not variant.randomised:
             reject_unknown(given, accepted)
