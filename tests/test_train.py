@@ -2,9 +2,11 @@
 the run configuration (:mod:`sma_gym_agents.training`) and the card (:class:`sma_gym_agents.card.PolicyCard`)."""
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import gymnasium as gym
 import numpy as np
@@ -249,3 +251,39 @@ def test_validation_references_lie_within_the_stroke_of_the_runs_own_actuator(tm
     run = RunConfig.from_args(parse_args(["--quick", "--env-kwargs", f"model:{tmp_path / 'short.json'}"]))
     assert short.usable_stroke_m < highest(RunConfig.from_args(parse_args(["--quick"])))
     assert 0.8 * short.usable_stroke_m < highest(run) <= short.usable_stroke_m
+
+
+def test_a_condition_the_agent_did_not_finish_is_its_worst_and_a_baseline_that_did_not_is_no_contender():
+    """Python's max keeps a NaN only where it comes first: a robust agent that overheated the
+    wire in the second of the chapter-7 conditions (its figure NaN there) met its worst-case
+    goal on the others, and a baseline that overheated decided the best baseline only when
+    listed first. results.md left such a policy's row out without a word."""
+    from sma_gym_agents.evaluation import ENDED_EARLY, Results, _records
+    from sma_gym_agents.training.compare import GOALS, ROBUST, Goal, summarise
+
+    figures = {("agent", "a"): 1e-3, ("agent", "b"): math.nan, ("pid", "a"): 2e-3, ("pid", "b"): 2e-3}
+    figures |= {("hot", "a"): math.nan, ("hot", "b"): 1e-4}
+    value = lambda p, c: figures[(p, c)]  # noqa: E731
+    worst = Goal("worst case below the best baseline", "step", over_conditions=True)
+    checked = worst.check(value, "agent", ["hot", "pid"], ["a", "b"])
+    assert math.isnan(checked["agent_mm"]) and not checked["met"]
+    # The baseline that overheated is no contender, wherever it is listed.
+    figures[("agent", "b")] = 1.5e-3
+    for pool in (["hot", "pid"], ["pid", "hot"]):
+        checked = worst.check(value, "agent", pool, ["a", "b"])
+        assert checked["best_baseline_mm"] == pytest.approx(2.0) and checked["met"]
+    assert math.isnan(worst.check(value, "agent", ["hot"], ["a", "b"])["best_baseline_mm"])
+
+    # results.md names the run that overheated instead of leaving its row out.
+    results = Results()
+    for policy, condition in (("PID", "standard"), ("PID", "5 V"), ("SAC", "standard")):
+        for ref in ("step", "sine"):
+            results.records += _records("7", policy, condition, ref, {"rms_error_m": np.array([1e-3])})
+    results.records += _records("7", "SAC", "5 V", "step", {ENDED_EARLY: np.array([2.5])})
+    results.records += _records("7", "SAC", "5 V", "sine", {"rms_error_m": np.array([1e-3])})
+    run = SimpleNamespace(env_id=ROBUST, algo="sac")
+    text, goals = summarise(run, results, "SAC", [("standard", ""), ("5 V", "")])
+    assert "| SAC | 5 V | overheated at 2.5 s | 1.000 |" in text
+    step_goal, sine_goal = (goals[g.name] for g in GOALS[ROBUST])
+    assert math.isnan(step_goal["agent_mm"]) and not step_goal["met"]
+    assert sine_goal["agent_mm"] == pytest.approx(1.0)
