@@ -30,8 +30,10 @@ from sma_gym_agents import report_targets as table
 from sma_gym_agents.commands import FIDELITY_OUTPUTS
 from sma_gym_agents.evaluation import CHAPTER_8_CASES, Record, Results
 
-MIN_PASS_COUNT = 82
-"""Rows with status ``pass`` in the quick run of the current model (raise it, never lower it)."""
+MIN_PASS_COUNT = 78
+"""Rows with status ``pass`` in the quick run of the current model (raise it, never lower it:
+lowered once, 82 -> 78 on 2026-12-07, when a review of the rows, not a model change, moved A1
+and B9 to calibration, 9r to not simulable and 7p's oscillation to the step it is about)."""
 
 SPEC = Path(__file__).resolve().parents[2] / "shared" / "spec" / "REPORT_TARGETS.md"
 
@@ -106,11 +108,33 @@ def test_statuses_follow_the_flags(result):
             assert r.within_tolerance is None and r.how
             continue
         assert isinstance(r.within_tolerance, bool)
-        assert (r.status == "calibration") == t.calibration, r.id
+        assert (r.status == "calibration") == (t.calibration or r.id in fidelity.CALIBRATED_HERE), r.id
         assert (r.status == "disputed") == (r.id in fidelity.DISPUTES), r.id
         if r.status in ("pass", "fail"):
             assert (r.status == "pass") == r.within_tolerance, r.id
-    assert [r.id for r in result.rows if r.status == "not simulable"] == ["A5"]
+    assert [r.id for r in result.rows if r.status == "not simulable"] == ["A5", "9r"]
+
+
+def test_rows_tuned_here_are_calibration_with_their_reason_and_arithmetic_is_not_simulated(result):
+    """A review of every row against its measurement (2026-12-07) found three counted as
+    passes that reproduce nothing: A1's stroke is the driver's cut, set to it; B9's
+    overshoot identified the controllers' filter; 9r is arithmetic about another design."""
+    rows = {r.id: r for r in result.rows}
+    assert set(fidelity.CALIBRATED_HERE) == {"A1", "B9"}
+    for rid in fidelity.CALIBRATED_HERE:
+        assert rows[rid].status == "calibration" and not target(rid).calibration
+        assert "calibration here" in rows[rid].how
+    assert rows["9r"].status == "not simulable" and rows["9r"].within_tolerance is None
+    text = fidelity.format_table(result.rows)
+    assert "Calibration rows the spec's list does not flag:\n- A1 (stroke): the driver's end-of-travel cut" in text
+
+
+def test_the_holding_slope_dispute_claims_only_what_its_numbers_show():
+    """The argument said no model could be within 1.5x of both 12 and 7 /m; 1.71x apart,
+    9.2 /m is within 1.31x of each. The row keeps the convention's factor 1.5 (it had 2)."""
+    argument = fidelity.DISPUTES["A27"]()
+    assert "no model" not in argument and "1.71x apart" in argument and "between 8.0 and 10.5 /m" in argument
+    assert target("A27").tolerance == "figure"
 
 
 def test_disputed_rows_print_their_argument(result, capsys):
@@ -297,7 +321,8 @@ def test_a_wrong_model_fails_its_rows():
     by_id = {r.id: r for r in fidelity.voltage_step_rows(swapped, cooling)}
     assert by_id["A21"].status == "fail"
     by_id = {r.id: r for r in fidelity.voltage_step_rows(frozen, cooling)}
-    assert by_id["A1"].status == "fail" and by_id["A22"].status == "fail" and not by_id["A28"].within_tolerance
+    # A1 is a calibration row (the cut is set to the stroke) but still outside when nothing moves.
+    assert not by_id["A1"].within_tolerance and by_id["A22"].status == "fail" and not by_id["A28"].within_tolerance
 
 
 def test_bench_reports_rates_for_both_modes_and_sizes(capsys):
