@@ -111,9 +111,12 @@ class PriorityAllocator(BudgetAllocator):
 
     When the lead asks less than the whole cycle (or at an episode start), the actuator with
     the largest error among those asking becomes the lead. A lead that reaches the limit is
-    passed over in that choice, so that one wire that cannot reach its reference (beyond
-    the stroke, or broken) takes at most ``lead_limit_s`` at a time from the others instead
-    of the whole cycle forever. At 10 V a wire crosses its stroke at full duty in about
+    *benched* for as long: it cannot lead and is served after every other actuator, so that
+    one wire that cannot reach its reference (a weak supply, a broken wire) takes at most
+    ``lead_limit_s`` at a time from the others, and then leaves them as long. (Until
+    2026-12-07 it was passed over once: still the largest error, it was served second and
+    led again the step after, so it kept 0.998 of an overrun cycle and three holders of 0.3
+    each got something in 4 of 500 steps.) At 10 V a wire crosses its stroke at full duty in about
     0.2-0.6 s, so the default limit of 1 s does not cut a reachable rise short there (at
     lower supplies it may: the lead then alternates, it is not lost).
 
@@ -144,6 +147,7 @@ class PriorityAllocator(BudgetAllocator):
         self.lead_limit_steps = max(1, int(round(float(lead_limit_s) / self.dt)))
         self._lead: np.ndarray | None = None
         self._held = np.zeros(0, dtype=int)
+        self._benched = np.zeros((0, 0), dtype=int)  # steps each actuator still waits at the back
 
     def reset(self) -> None:
         super().reset()
@@ -172,25 +176,30 @@ class PriorityAllocator(BudgetAllocator):
         (call once per step; ``episode_start`` per bank forgets its lead)."""
         ask = np.asarray(ask, dtype=float)
         n_batch = ask.shape[0]
-        if self._lead is None or self._lead.shape != (n_batch,):
+        if self._lead is None or self._lead.shape != (n_batch,) or self._benched.shape != ask.shape:
             self._lead, self._held = np.full(n_batch, -1), np.zeros(n_batch, dtype=int)
+            self._benched = np.zeros(ask.shape, dtype=int)
         if episode_start is not None:
-            self._lead[np.broadcast_to(np.asarray(episode_start, dtype=bool).reshape(-1), (n_batch,))] = -1
+            starting = np.broadcast_to(np.asarray(episode_start, dtype=bool).reshape(-1), (n_batch,))
+            self._lead[starting] = -1
+            self._benched[starting] = 0
         banks = np.arange(n_batch)
         lead = self._lead
-        # The lead keeps its place while it asks the whole cycle, up to the limit; else the
-        # largest error asking anything (passing over a lead that reached the limit, if another asks).
+        # The lead keeps its place while it asks the whole cycle, up to the limit; a lead that
+        # reaches it is benched as long. Else the largest error asking anything and not benched
+        # (a benched one only if no other asks).
         full = (lead >= 0) & (ask[banks, np.maximum(lead, 0)] >= 1.0 - 1e-6)
         keep = full & (self._held < self.lead_limit_steps)
+        self._benched = np.maximum(self._benched - 1, 0)
+        self._benched[banks[full & ~keep], lead[full & ~keep]] = self.lead_limit_steps
         asking = ask > 0.0
-        passed = np.zeros_like(asking)
-        passed[banks[full & ~keep], lead[full & ~keep]] = True
-        passed &= (asking & ~passed).any(axis=1, keepdims=True)
-        candidate = np.argmax(np.where(asking & ~passed, error_m, -np.inf), axis=1)
+        benched = (self._benched > 0) & (asking & (self._benched == 0)).any(axis=1, keepdims=True)
+        candidate = np.argmax(np.where(asking & ~benched, error_m, -np.inf), axis=1)
         new = np.where(keep, lead, np.where(asking.any(axis=1), candidate, -1))
         self._held = np.where(keep, self._held + 1, (new >= 0).astype(int))
         self._lead = lead = new
         key = np.array(error_m, dtype=float)
+        key[benched] = -np.inf  # served after every other
         key[banks[lead >= 0], lead[lead >= 0]] = np.inf
         order = np.argsort(-key, axis=1, kind="stable")
         asked = np.take_along_axis(ask, order, axis=1)

@@ -70,6 +70,10 @@ def test_budget_rule_scales_shares_proportionally_and_lays_pulses_end_to_end():
     assert not start.any()
     with pytest.raises(ValueError, match="scheme"):
         Multiplexer(4, 2000.0, "round_robin")
+    # One NaN spread through the budget's sum to every pulse of the bank, silently.
+    for bad in (np.nan, np.inf):
+        with pytest.raises(ValueError, match="expected finite duty cycles"):
+            mux.layout(np.array([bad, 0.0, 0.0, 0.0]))
 
 
 def test_the_resolved_simulation_sees_the_shared_budget_pulse_train():

@@ -119,6 +119,27 @@ def test_priority_allocator_passes_over_a_lead_that_held_the_cycle_for_its_limit
             PriorityAllocator("PID", env, lead_limit_s=bad)
 
 
+def test_a_lead_that_reached_its_limit_waits_as_long_behind_the_others():
+    """One wire that cannot arrive asks the whole cycle and has the largest error; three
+    holders ask 0.3 each. Passed over once, the wire was served second (still the largest
+    error) and led again the next step: it kept 0.998 of the cycle and the holders were
+    served in 4 of 500 steps. Benched as long as it led, it takes half."""
+    env = make(4, "shared_budget")
+    env.reset(seed=0)
+    policy = Asking("PID", env, lead_limit_s=3e-3)  # three control periods
+    policy.asks = np.array([[1.0, 0.3, 0.3, 0.3]])
+    obs = bank_obs(env, np.array([[20e-3, 3e-3, 2e-3, 1e-3]]), np.zeros((1, 4)))
+    duties = []
+    for k in range(60):
+        action, _ = policy.predict(obs, episode_start=np.array([k == 0]))
+        duties.append(env.unwrapped.duty_for(action)[0])
+    duties = np.array(duties)
+    np.testing.assert_allclose(duties[:3], [[1.0, 0.0, 0.0, 0.0]] * 3, atol=1e-6)  # it leads its limit
+    np.testing.assert_allclose(duties[3:6], [[0.1, 0.3, 0.3, 0.3]] * 3, atol=1e-6)  # then waits behind them
+    np.testing.assert_allclose(duties[:, 0].mean(), 0.55, atol=1e-6)
+    assert np.all((duties[:, 1:] > 0.29).mean(axis=0) == 0.5)
+
+
 def test_priority_allocator_keeps_a_lead_per_bank_of_a_batch():
     env = make(2, "shared_budget")
     env.reset(seed=0)

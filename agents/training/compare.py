@@ -2,7 +2,7 @@
 
 :func:`compare` scores the run's best model with the evaluation harness on the report's
 8 mm step and 0.1 Hz sine (not its training references, though inside their range) beside the baselines chosen for
-its env (:data:`PLANS`), writes the harness's report, and returns ``results.md`` and the
+its env (``_baselines``; a bank run on independent references per actuator), writes the harness's report, and returns ``results.md`` and the
 goals checked (:data:`GOALS`).
 """
 

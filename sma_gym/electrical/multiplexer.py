@@ -66,7 +66,11 @@ class Multiplexer:
         keeps its share of what was asked), and the pulses follow one another from the
         cycle's start in actuator order, so pulse j starts where pulse j - 1 ends.
         """
-        duty = np.clip(np.asarray(duties, dtype=float), 0.0, self.duty_max)
+        raw = np.asarray(duties, dtype=float)
+        if not np.all(np.isfinite(raw)):
+            # One NaN would spread through the budget's sum to every pulse of the bank.
+            raise ValueError(f"duties = {duties!r}: expected finite duty cycles")
+        duty = np.clip(raw, 0.0, self.duty_max)
         if duty.shape[-1:] != (self.n_actuators,):
             raise ValueError(f"duties have shape {duty.shape}: expected (..., {self.n_actuators})")
         if self.scheme == "fixed_slots":
