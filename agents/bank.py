@@ -125,8 +125,9 @@ class PriorityAllocator(BudgetAllocator):
     overrun cycle among all that ask, so sixteen actuators asking at once each get a 1/16
     slot, the fixed-slot bank's, and all heat slowly together; serving one to its reference
     at a time moves each in turn. Measured with VSC3 + FF on sixteen independent references
-    (the evaluation's bank tracking, 10 V, worst of three seeds): 4.78 mm RMS proportional,
-    3.40 mm by error alone (no lead), 2.94 mm by this rule (docs/baselines.md). The holders
+    (the evaluation's bank tracking, 10 V, worst of three seeds): 4.67 mm RMS proportional,
+    2.91 mm by this rule (2026-12-06; on an earlier model 4.78, 3.40 by error alone without
+    a lead, and 2.94 mm; docs/baselines.md). The holders
     pay: while the lead takes the cycle, an actuator further down the order cools.
     """
 

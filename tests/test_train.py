@@ -287,3 +287,17 @@ def test_a_condition_the_agent_did_not_finish_is_its_worst_and_a_baseline_that_d
     step_goal, sine_goal = (goals[g.name] for g in GOALS[ROBUST])
     assert math.isnan(step_goal["agent_mm"]) and not step_goal["met"]
     assert sine_goal["agent_mm"] == pytest.approx(1.0)
+    # The bank's table too.
+    from sma_gym_agents.training.compare import BANK
+
+    bank = Results()
+    bank.records += _records(
+        "9 bank tracking",
+        "PID (fixed slots)",
+        "16",
+        "independent",
+        {"rms_error_m": np.array([1e-3]), "energy_j": np.array([2.0])},
+    )
+    bank.records += _records("9 bank tracking", "SAC", "16", "independent", {ENDED_EARLY: np.array([4.0])})
+    text, _ = summarise(SimpleNamespace(env_id=BANK, algo="sac", env_kwargs={}), bank, "SAC", [("16", "")])
+    assert "| PID (fixed slots) | 16 | 1.000 | 2.00 |\n| SAC | 16 | overheated at 4.0 s | overheated at 4.0 s |" in text

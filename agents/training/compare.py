@@ -215,9 +215,9 @@ def summarise(
         ]
         for condition, _ in conditions:
             for p in policies:
-                rms = get(p, condition, "independent", "rms_error_m")
-                energy = get(p, condition, "independent", "energy_j", worst=False)
-                lines.append(f"| {p} | {condition} | {rms * 1e3:.3f} | {energy:.2f} |")
+                rms = _cell(get, p, condition, "independent", "rms_error_m", lambda v: f"{v * 1e3:.3f}")
+                energy = _cell(get, p, condition, "independent", "energy_j", lambda v: f"{v:.2f}", worst=False)
+                lines.append(f"| {p} | {condition} | {rms} | {energy} |")
         return _with_goals(run, lines, get, agent, [p for p in policies if p != agent], [c for c, _ in conditions])
     lines = [
         f"# {run.algo.upper()} on {run.env_id} beside the report's controllers",
@@ -230,14 +230,6 @@ def summarise(
         "|---|---|---|---|---|---|---|",
     ]
 
-    def cell(p: str, condition: str, ref: str, metric: str, text: Callable[[float], str], worst: bool = True) -> str:
-        figure = get(p, condition, ref, metric, worst=worst)
-        if math.isnan(figure):
-            ended = get(p, condition, ref, ENDED_EARLY, worst=False)
-            if not math.isnan(ended):
-                return f"overheated at {ended:.1f} s"
-        return text(figure)
-
     for condition, _ in conditions:
         for p in policies:
             ran = [
@@ -249,16 +241,35 @@ def summarise(
                 continue  # not run under this condition
             sse = get(p, condition, "step", "steady_state_error_m")
             mm = lambda v: f"{v * 1e3:.3f}"  # noqa: E731
-            overheated = cell(p, condition, "step", "rms_error_m", mm).startswith("overheated")
+            overheated = _cell(get, p, condition, "step", "rms_error_m", mm).startswith("overheated")
             lines.append(
-                f"| {p} | {condition} | {cell(p, condition, 'step', 'rms_error_m', mm)} | "
-                f"{cell(p, condition, 'sine', 'rms_error_m', mm)} | "
+                f"| {p} | {condition} | {_cell(get, p, condition, 'step', 'rms_error_m', mm)} | "
+                f"{_cell(get, p, condition, 'sine', 'rms_error_m', mm)} | "
                 f"{'' if overheated else mm(get(p, condition, 'step', 'overshoot_m'))} | "
                 f"{'' if overheated else ('osc.' if math.isnan(sse) else f'{sse * 1e3:+.3f}')} | "
-                f"{cell(p, condition, 'sine', 'energy_j', lambda v: f'{v:.2f}', worst=False)} |"
+                f"{_cell(get, p, condition, 'sine', 'energy_j', lambda v: f'{v:.2f}', worst=False)} |"
             )
     with_sensor = [p for p in policies if p != agent and "self-sensing" not in p]
     return _with_goals(run, lines, get, agent, with_sensor, [c for c, _ in conditions])
+
+
+def _cell(
+    get: Callable[..., float],
+    policy: str,
+    condition: str,
+    ref: str,
+    metric: str,
+    text: Callable[[float], str],
+    worst: bool = True,
+) -> str:
+    """A results.md cell: the figure as ``text`` gives it, or when the run overheated the
+    wire before it ended (no figure), when that was."""
+    figure = get(policy, condition, ref, metric, worst=worst)
+    if math.isnan(figure):
+        ended = get(policy, condition, ref, ENDED_EARLY, worst=False)
+        if not math.isnan(ended):
+            return f"overheated at {ended:.1f} s"
+    return text(figure)
 
 
 def _with_goals(

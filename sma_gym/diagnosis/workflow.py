@@ -450,9 +450,10 @@ def diagnose(
         # The model this round leaves, and its held-out score: what the user gets if the
         # rounds end here (the round's table and staircase show it, not the model it started from).
         refit_adopted = False
-        # An effect found before may be named again in another form with this round's
-        # candidate (``_other_forms``), its default form included.
-        forms, moved = _forms_carried(forms, found, r.chosen.fit.parameters if named else ())
+        # An effect found before may be named again (or carried, from an ambiguous round) in
+        # another form with this round's candidate (``_other_forms``), its default form included.
+        carries = named or r.verdict == "ambiguous"
+        forms, moved = _forms_carried(forms, found, r.chosen.fit.parameters if carries else ())
         moved = {**(r.form_change or {}), **moved}
         if named or r.verdict == "ambiguous":
             model_r, offset_r, score_r = r.chosen.fit.model, r.chosen.fit.offset, r.chosen.heldout_score

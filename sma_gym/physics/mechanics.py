@@ -10,7 +10,7 @@ Equations (report §5.1-5.3, docs/model.md §2-§3)::
 theta_T = -D alpha and eps = eps0 - x / l0 in its secant form, the exact integral while the
 modulus is fixed (with Elahinia's D(xi) = xi D_M + (1 - xi) D_A, and each phase's own
 expansion, alpha(xi) = xi alpha_M + (1 - xi) alpha_A; a varying D would add D'(xi) xi'
-times the elastic strain to the rate form, about 1 % of Omega xi'). At rest (x = 0, xi = 1, T = T_amb) it gives sigma0 =
+times the elastic strain to the rate form, 1-3 % of Omega xi' on the standard wire). At rest (x = 0, xi = 1, T = T_amb) it gives sigma0 =
 F_pre / A, which balances the spring preload.
 
 Why implicit, and why this is at least as robust as the report's §5.5
