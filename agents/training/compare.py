@@ -229,7 +229,7 @@ def summarise(
         "| policy | condition | RMS step | RMS sine | overshoot | steady-state error | energy sine [J] |",
         "|---|---|---|---|---|---|---|",
     ]
-
+    mm = lambda v: f"{v * 1e3:.3f}"  # noqa: E731
     for condition, _ in conditions:
         for p in policies:
             ran = [
@@ -240,10 +240,10 @@ def summarise(
             if not any(ran):
                 continue  # not run under this condition
             sse = get(p, condition, "step", "steady_state_error_m")
-            mm = lambda v: f"{v * 1e3:.3f}"  # noqa: E731
-            overheated = _cell(get, p, condition, "step", "rms_error_m", mm).startswith("overheated")
+            step = _cell(get, p, condition, "step", "rms_error_m", mm)
+            overheated = step.startswith("overheated")  # then the step has no overshoot or steady state
             lines.append(
-                f"| {p} | {condition} | {_cell(get, p, condition, 'step', 'rms_error_m', mm)} | "
+                f"| {p} | {condition} | {step} | "
                 f"{_cell(get, p, condition, 'sine', 'rms_error_m', mm)} | "
                 f"{'' if overheated else mm(get(p, condition, 'step', 'overshoot_m'))} | "
                 f"{'' if overheated else ('osc.' if math.isnan(sse) else f'{sse * 1e3:+.3f}')} | "

@@ -455,7 +455,7 @@ def diagnose(
         carries = named or r.verdict == "ambiguous"
         forms, moved = _forms_carried(forms, found, r.chosen.fit.parameters if carries else ())
         moved = {**(r.form_change or {}), **moved}
-        if named or r.verdict == "ambiguous":
+        if carries:
             model_r, offset_r, score_r = r.chosen.fit.model, r.chosen.fit.offset, r.chosen.heldout_score
         elif chosen_fit is None:
             # Nothing found yet: the workflow returns the nominal refit (below).
@@ -1500,7 +1500,7 @@ def _block_t(best: Candidate, other: Candidate, held: fitting.Problem) -> float 
 def _forms_carried(
     forms: dict[str, str], found_before: Sequence[str], parameters: Sequence[fitting.FitParameter]
 ) -> tuple[dict[str, str], dict[str, str]]:
-    """The forms of the effects in a named round's model: ``(forms, switched)``, where
+    """The forms of the effects in the model a round names or carries: ``(forms, switched)``, where
     ``switched`` holds the effects found before whose form this model changed. Every effect
     keeps the form it was fitted in, the default one included: recording only the other
     forms (until 2026-12-07) left an effect named back in its default form at its old one,
