@@ -474,3 +474,36 @@ def test_warmup_runs_every_compiled_path_and_says_where_the_cache_is(capsys):
     assert main(["warmup"]) == 0
     out = capsys.readouterr().out
     assert f"compiled {len(done.paths)} paths" in out and ("cached in" in out or "not cached" in out)
+
+
+@pytest.mark.parametrize("env_id", sma_gym.ENV_IDS)
+def test_an_episode_that_ends_on_its_last_step_is_terminated_and_truncated_as_in_gymnasiums_sync_env(env_id):
+    """Gymnasium's ``TimeLimit`` truncates at the step limit whatever ``terminated`` says, so a
+    wire that overheats on the last step is both; the native envs reported it terminated only
+    (a loop that counts time-outs apart from failures saw one fewer)."""
+    hot = {"overheat_limit_c": 45.0}
+    probe = native(env_id, 1, **hot)
+    probe.reset(seed=0)
+    full = np.ones(probe.action_space.shape, dtype=np.float32)
+    step = 1
+    while not probe.step(full)[2][0]:
+        step += 1
+        assert step < 200, "the wire never overheated at full duty"
+    ours = native(env_id, 1, max_episode_steps=step, **hot)
+    theirs = gym.make_vec("sma_gym:" + env_id, num_envs=1, vectorization_mode="sync", max_episode_steps=step, **hot)
+    for env in (ours, theirs):
+        env.reset(seed=0)
+        for _ in range(step - 1):
+            env.step(full)
+    (*_, term_a, trunc_a, _), (*_, term_b, trunc_b, _) = ours.step(full), theirs.step(full)
+    assert term_b[0] and trunc_b[0]
+    assert np.array_equal(term_a, term_b) and np.array_equal(trunc_a, trunc_b)
+
+
+def test_rendering_a_native_vector_env_without_a_render_mode_warns_and_gives_no_frames_as_the_sync_env():
+    ours = native("SMATracking-v0", 2)
+    theirs = gym.make_vec("sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="sync")
+    for env in (ours, theirs):
+        env.reset(seed=0)
+        with pytest.warns(UserWarning, match="render_mode"):
+            assert env.render() == (None, None)

@@ -456,7 +456,8 @@ class SMAMultiplexedVectorEnv(MadeWith, ImportableSpec, VectorEnv):
             reward[restart] = 0.0
             terminated[restart] = False
         if self.max_episode_steps is not None:
-            truncated = (self._steps >= self.max_episode_steps) & ~terminated
+            # As Gymnasium's TimeLimit: truncated at the limit even when it terminated too.
+            truncated = self._steps >= self.max_episode_steps
         else:
             truncated = np.zeros(m, dtype=bool)
         self._ended = terminated | truncated

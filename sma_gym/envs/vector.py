@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
@@ -313,7 +314,8 @@ class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
         self._record(np.flatnonzero(~restart))
         terminated = self._term.copy()
         if self.max_episode_steps is not None:
-            truncated = (self._steps >= self.max_episode_steps) & ~terminated
+            # As Gymnasium's TimeLimit: truncated at the limit even when it terminated too.
+            truncated = self._steps >= self.max_episode_steps
         else:
             truncated = np.zeros(self.num_envs, dtype=bool)
         reward = self._reward.copy()
@@ -376,10 +378,12 @@ class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
                 temperature=sim.temperature_c[i],
             )
 
-    def render(self) -> tuple[np.ndarray, ...] | None:
-        """One (H, W, 3) uint8 frame per sub-env (``render_mode="rgb_array"``)."""
+    def render(self) -> tuple[np.ndarray | None, ...]:
+        """One (H, W, 3) uint8 frame per sub-env (``render_mode="rgb_array"``); without a
+        render mode a warning and one None per sub-env, as Gymnasium's sync env returns."""
         if self.render_mode is None:
-            return super().render()
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to make_vec()")
+            return (None,) * self.num_envs
         if not self._plots:
             self._plots = [EpisodePlot() for _ in range(self.num_envs)]
         name = self.spec.id if self.spec else "SMA"
