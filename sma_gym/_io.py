@@ -362,13 +362,17 @@ def _mib(n: int) -> str:
 def read_text(path: str | Path, max_bytes: int, what: str = "file") -> str:
     """The UTF-8 text of ``path`` (a byte-order mark is dropped), at most ``max_bytes``.
 
-    Raises ``ValueError`` naming the file for a missing file, a directory, a file larger
-    than ``max_bytes`` (read is capped: ``/dev/zero`` is refused, not read forever) and
-    bytes that are not UTF-8 text.
+    Raises ``ValueError`` naming the file for a missing file, a directory, a named pipe or
+    socket (not waited on), a file larger than ``max_bytes`` (read is capped: ``/dev/zero``
+    is refused, not read forever) and bytes that are not UTF-8 text.
     """
     p = Path(path)
     if p.is_dir():
         raise ValueError(f"{what} {str(p)!r}: is a folder, expected a file")
+    if p.is_fifo() or p.is_socket():
+        # Opening a named pipe waits for a writer: refused, not waited on forever.
+        kind = "a named pipe" if p.is_fifo() else "a socket"
+        raise ValueError(f"{what} {str(p)!r}: is {kind}, expected a file")
     try:
         with open(p, "rb") as handle:
             data = handle.read(max_bytes + 1)

@@ -673,3 +673,79 @@ def test_a_described_reference_given_back_as_a_dict_is_the_same_reference_and_it
         env.reset(seed=6, options={"reference": given})
         assert env.reference_description() == described
         assert all(f"`{field}`" in type(env).__doc__ for field in FIELDS[kind])
+
+
+def _snapshot(env):
+    """What a refused reset must leave alone: every model, reference and state of the simulator."""
+    u = env.unwrapped
+    return (
+        [m.actuator for m in u.sim.models],
+        u.sim.params.copy(),
+        u.sim.state.copy() if hasattr(u.sim, "state") else None,
+        u.task.describe_references(),
+        u.sim.time_s.copy(),
+    )
+
+
+def _same(a, b):
+    assert a[0] == b[0]
+    np.testing.assert_array_equal(a[1], b[1])
+    if a[2] is not None:
+        np.testing.assert_array_equal(a[2], b[2])
+    assert a[3] == b[3]
+    np.testing.assert_array_equal(a[4], b[4])
+
+
+@pytest.mark.parametrize(
+    "env_id, bad",
+    [
+        ("SMARobust-v0", {"reference": "bogus"}),
+        ("SMATracking-v0", {"reference": "bogus"}),
+        ("SMAMultiplexed-v0", {"references": ["report-step", "report-step", "bogus"]}),
+    ],
+)
+def test_a_refused_reset_changes_nothing_and_the_episode_goes_on_as_it_was(env_id, bad):
+    """The robust env drew and set its new condition (another supply voltage) before the
+    reference was refused, and the bank set its first references: the running episode went
+    on with half a reset. Now it goes on exactly as an env never asked."""
+    kwargs = {"n_actuators": 3} if env_id == "SMAMultiplexed-v0" else {}
+    envs = [gym.make("sma_gym:" + env_id, **kwargs) for _ in range(2)]
+    action = np.full(envs[0].action_space.shape, 0.3, dtype=np.float32)
+    for env in envs:
+        env.reset(seed=0)
+        for _ in range(20):
+            env.step(action)
+    before = _snapshot(envs[0])
+    with pytest.raises(ValueError, match="bogus"):
+        envs[0].reset(options=bad)
+    _same(_snapshot(envs[0]), before)
+    for _ in range(5):
+        a, b = envs[0].step(action), envs[1].step(action)
+        np.testing.assert_array_equal(a[0], b[0])
+        assert a[1] == b[1] and a[4]["time_s"] == b[4]["time_s"]
+    # The generator too: the next reset draws what it would have drawn.
+    np.testing.assert_array_equal(envs[0].reset()[0], envs[1].reset()[0])
+
+
+@pytest.mark.parametrize("env_id", ["SMARobust-v0", "SMAMultiplexed-v0"])
+def test_a_refused_reset_of_a_native_vector_env_changes_no_sub_env(env_id):
+    """The robust sub-env's new condition was set before its reference was refused; the
+    bank's first references were set before a later one was."""
+    kwargs = {"n_actuators": 2} if env_id == "SMAMultiplexed-v0" else {}
+    bad = {"references": ["report-step", "bogus"]} if env_id == "SMAMultiplexed-v0" else {"reference": "bogus"}
+    envs = [
+        gym.make_vec("sma_gym:" + env_id, num_envs=2, vectorization_mode="vector_entry_point", **kwargs)
+        for _ in range(2)
+    ]
+    action = np.full(envs[0].action_space.shape, 0.3, dtype=np.float32)
+    for env in envs:
+        env.reset(seed=0)
+        for _ in range(10):
+            env.step(action)
+    before = _snapshot(envs[0])
+    with pytest.raises(ValueError, match="bogus"):
+        envs[0].reset(options=bad)
+    _same(_snapshot(envs[0]), before)
+    a, b = envs[0].step(action), envs[1].step(action)
+    np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(envs[0].reset()[0], envs[1].reset()[0])

@@ -221,3 +221,33 @@ def test_a_comment_line_is_named_as_one_not_as_missing_columns(tmp_path):
     with pytest.raises(MeasuredDataError) as err:
         load_trace(f)
     assert "is a comment line; expected the header" in str(err.value) and "missing" not in str(err.value)
+
+
+@pytest.mark.parametrize("repeats", [60, 6000])
+def test_a_stray_quote_is_named_with_its_row_not_swallowing_the_file_or_crashing_the_reader(tmp_path, repeats):
+    """A quote left open made the rest of the file one field: a small file then lost its rows
+    ("5 data rows, expected at least 20"), a large one crashed the reader (``_csv.Error``:
+    field larger than field limit)."""
+    rows = [f"{k * 0.01:.2f},0.1,{k * 1e-6:.6g}\n" for k in range(repeats)]
+    rows[4] = '0.04,"0.1,4e-6\n'
+    f = write(tmp_path / "quote.csv", "t,duty,position\n" + "".join(rows))
+    before = digest(f)
+    with pytest.raises(MeasuredDataError, match=r"quote\.csv:6: .*(double quote|not readable).*stray") as err:
+        load_trace(f)
+    assert "expected one row per line" in str(err.value)
+    assert digest(f) == before
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "mkfifo"), reason="no named pipes here")
+def test_a_named_pipe_is_refused_not_waited_on(tmp_path):
+    """Opening a named pipe blocks until something writes to it: the loaders hung for ever."""
+    import os
+
+    from sma_gym.model import load_model
+
+    pipe = tmp_path / "pipe.csv"
+    os.mkfifo(pipe)
+    with pytest.raises(MeasuredDataError, match="pipe.csv.*named pipe, expected a file"):
+        load_trace(pipe)
+    with pytest.raises(ValueError, match="pipe.csv.*named pipe, expected a file"):
+        load_model(str(pipe))

@@ -206,7 +206,24 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
         text = read_text(p, MAX_CSV_BYTES, "measured data")
     except ValueError as err:
         raise MeasuredDataError([str(err)]) from None
-    rows = list(csv.reader(io.StringIO(text, newline="")))
+    rows = []
+    reader = csv.reader(io.StringIO(text, newline=""))
+    try:
+        for row in reader:
+            line = len(rows) + 1
+            if reader.line_num != line:
+                # A quote left open swallows the lines after it into one field.
+                raise MeasuredDataError(
+                    [
+                        f"{where}:{line}: a double quote opened on this line runs on to line "
+                        f"{reader.line_num}; expected one row per line (a stray '\"'?)"
+                    ]
+                )
+            rows.append(row)
+    except csv.Error as err:
+        raise MeasuredDataError(
+            [f"{where}:{len(rows) + 1}: not readable as CSV ({err}; a stray '\"'?); expected one row per line"]
+        ) from None
     while rows and not any(field.strip() for field in rows[-1]):
         rows.pop()  # blank lines at the end (editors and spreadsheets add them)
     if not rows:

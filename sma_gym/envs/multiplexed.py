@@ -213,8 +213,17 @@ class SMAMultiplexedEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
         self.sim.rng = self.np_random
         specs = reference_specs(require_options(options), self.n)
         strokes = self.sim.usable_stroke_m
-        for j, spec in enumerate(specs):
-            ref = refs.resolve(spec, self.np_random, float(strokes[j]), self.settings.reference)
+        # Every reference drawn before any is set: one refused leaves the running episode as it was.
+        before = self.np_random.bit_generator.state
+        try:
+            drawn = [
+                refs.resolve(spec, self.np_random, float(strokes[j]), self.settings.reference)
+                for j, spec in enumerate(specs)
+            ]
+        except Exception:
+            self.np_random.bit_generator.state = before
+            raise
+        for j, ref in enumerate(drawn):
             self.task.set_reference(j, ref)
         self.sim.reset()
         for j in range(self.n):
@@ -411,14 +420,25 @@ class SMAMultiplexedVectorEnv(MadeWith, ImportableSpec, VectorEnv):
     def _reset_banks(self, banks: np.ndarray, options: dict) -> None:
         n = self.n
         specs = reference_specs(options, n, also=("reset_mask",))
+        # Every bank's references drawn before any is set: one refused leaves every bank's
+        # episode and generator as it was.
+        drawn, before = {}, []
+        try:
+            for b in banks:
+                if self._rngs[b] is None:
+                    self._rngs[b], _ = seeding.np_random(None)
+                rng = self._rngs[b]
+                before.append((rng, rng.bit_generator.state))
+                for j, spec in enumerate(specs):
+                    i = b * n + j
+                    drawn[i] = refs.resolve(spec, rng, float(self.sim.usable_stroke_m[i]), self.settings.reference)
+        except Exception:
+            for rng, state in before:
+                rng.bit_generator.state = state
+            raise
         for b in banks:
-            if self._rngs[b] is None:
-                self._rngs[b], _ = seeding.np_random(None)
-            rng = self._rngs[b]
-            for j, spec in enumerate(specs):
-                i = b * n + j
-                stroke = float(self.sim.usable_stroke_m[i])
-                self.task.set_reference(i, refs.resolve(spec, rng, stroke, self.settings.reference))
+            for j in range(n):
+                self.task.set_reference(b * n + j, drawn[b * n + j])
             actuators = np.arange(b * n, (b + 1) * n)
             self.sim.reset(actuators)
             for i in actuators:

@@ -210,28 +210,59 @@ class Settings:
         return task.TaskState(n, observation, self.energy_weight, self.overheat_limit_c)
 
 
+def draw_actuator(
+    sim: Simulator, i: int, rng: np.random.Generator, settings: Settings, options: dict | None
+) -> tuple[ModelConfig | None, dict[str, Any] | None, refs.Reference]:
+    """Phase one of resetting actuator i: check ``options`` and draw its condition (robust;
+    else ``None`` for both) and reference from ``rng``. Changes nothing else; refused, it
+    leaves ``rng`` as it found it, so a bad option leaves the episode running as it was."""
+    options = require_options(options)
+    unknown = set(options) - {"reference"}
+    if unknown:
+        raise ValueError(f"reset options {sorted(unknown)}: expected only 'reference'")
+    before = rng.bit_generator.state
+    try:
+        model = condition = None
+        stroke_m = float(sim.usable_stroke_m[i])
+        if settings.conditions is not None:
+            model, condition = settings.conditions.draw(settings.model, rng)
+            stroke_m = model.actuator.usable_stroke_m  # what set_model gives the simulator
+        reference = refs.resolve(options.get("reference"), rng, stroke_m, settings.reference)
+    except Exception:
+        rng.bit_generator.state = before
+        raise
+    return model, condition, reference
+
+
+def start_actuator(
+    sim: Simulator,
+    state: task.TaskState,
+    i: int,
+    drawn: tuple[ModelConfig | None, dict[str, Any] | None, refs.Reference],
+) -> dict[str, Any] | None:
+    """Phase two: give actuator i what :func:`draw_actuator` drew and start its episode;
+    returns the condition."""
+    model, condition, reference = drawn
+    if model is not None:
+        sim.set_model(i, model)
+    state.set_reference(i, reference)
+    sim.reset(np.array([i]))
+    state.reset_actuator(i, sim)
+    return condition
+
+
 def reset_actuator(
     sim: Simulator, state: task.TaskState, i: int, rng: np.random.Generator, settings: Settings, options: dict | None
 ) -> dict[str, Any] | None:
     """Reset actuator i: draw its condition (robust) and reference from ``rng``.
 
-    The one place a single env and the vector env reset an actuator, so that the same seed
-    gives the same episode in both. Returns the drawn condition (``None`` unless the
-    variant randomises conditions); the reference is ``state.references[i]``.
+    The one place a single env and the vector env reset an actuator (the vector env runs
+    its two phases, :func:`draw_actuator` for every sub-env first, then
+    :func:`start_actuator`), so that the same seed gives the same episode in both. Returns
+    the drawn condition (``None`` unless the variant randomises conditions); the reference
+    is ``state.references[i]``.
     """
-    options = require_options(options)
-    unknown = set(options) - {"reference"}
-    if unknown:
-        raise ValueError(f"reset options {sorted(unknown)}: expected only 'reference'")
-    condition = None
-    if settings.conditions is not None:
-        model, condition = settings.conditions.draw(settings.model, rng)
-        sim.set_model(i, model)
-    ref = refs.resolve(options.get("reference"), rng, float(sim.usable_stroke_m[i]), settings.reference)
-    state.set_reference(i, ref)
-    sim.reset(np.array([i]))
-    state.reset_actuator(i, sim)
-    return condition
+    return start_actuator(sim, state, i, draw_actuator(sim, i, rng, settings, options))
 
 
 class MadeWith:

@@ -28,9 +28,10 @@ from sma_gym.envs.single import (
     Settings,
     SMARobustEnv,
     Variant,
+    draw_actuator,
     keyword_settings,
-    reset_actuator,
     spell_out_settings,
+    start_actuator,
     with_settings,
 )
 from sma_gym.envs.task import UnstartedEnvs
@@ -268,10 +269,21 @@ class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
 
     def _reset_envs(self, envs: np.ndarray, options: dict | None) -> None:
         """Start a new episode in the sub-envs ``envs``, each drawing from its own generator."""
-        for i in envs:
-            if self._rngs[i] is None:
-                self._rngs[i], _ = seeding.np_random(None)
-            condition = reset_actuator(self.sim, self.task, int(i), self._rngs[i], self.settings, options)
+        # Every sub-env's draw first: an option refused for one (a level past its drawn wire's
+        # stroke) then leaves every sub-env's episode and generator as it was.
+        drawn, before = [], []
+        try:
+            for i in envs:
+                if self._rngs[i] is None:
+                    self._rngs[i], _ = seeding.np_random(None)
+                before.append(self._rngs[i].bit_generator.state)
+                drawn.append(draw_actuator(self.sim, int(i), self._rngs[i], self.settings, options))
+        except Exception:
+            for i, state in zip(envs, before):
+                self._rngs[i].bit_generator.state = state
+            raise
+        for i, episode in zip(envs, drawn):
+            condition = start_actuator(self.sim, self.task, int(i), episode)
             self.conditions[i] = condition
             if condition is not None:
                 for key, value in condition_info(condition).items():
