@@ -144,8 +144,11 @@ def _evaluate(args: argparse.Namespace) -> int:
             f"--seeds {args.seeds}: expected an integer in [1, {MAX_EVALUATION_SEEDS}] (each seed reruns every "
             "experiment; the report's figures take 3)"
         )
-    for b in baselines or []:
-        evaluation.baseline(b)
+    labels = [evaluation.baseline(b).name for b in baselines or []]
+    for k, label in enumerate(labels):
+        if label in labels[:k]:
+            # One row per controller: a second would run it again and overwrite its row.
+            raise ValueError(f"--baselines {baselines[k]!r}: {label!r} given twice; expected each controller once")
     for policy in args.policy or []:
         agent = load_policy(policy)  # card, hash and zip checked now, not after the baselines ran
         _require_scored(policy, agent.env_id, experiments)

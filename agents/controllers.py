@@ -115,6 +115,17 @@ def with_feedforward(spec: ControllerSpec) -> ControllerSpec:
 ALL_SPECS = BASE_SPECS + tuple(with_feedforward(s) for s in BASE_SPECS)
 
 
+def require_filter_cutoff_hz(value: object) -> float:
+    """``value`` as the position filter's cut-off [Hz]: a finite number >= 0 (0: no filter),
+    or ValueError naming it (NaN, a negative or an infinite cut-off turned the filter off
+    without a word)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"filter_cutoff_hz = {value!r}: expected a number of Hz (0: no filter)")
+    if not (math.isfinite(value) and value >= 0.0):
+        raise ValueError(f"filter_cutoff_hz = {value!r}: expected a finite cut-off >= 0 Hz (0: no filter)")
+    return float(value)
+
+
 def spec_by_label(label: str) -> ControllerSpec:
     for s in ALL_SPECS:
         if s.label.lower().replace(" ", "") == label.lower().replace(" ", ""):
@@ -131,6 +142,7 @@ class Controller:
         self.spec = spec
         self.n = n
         self.dt = dt
+        filter_cutoff_hz = require_filter_cutoff_hz(filter_cutoff_hz)
         self._alpha = 1.0 - math.exp(-2.0 * math.pi * filter_cutoff_hz * dt) if filter_cutoff_hz > 0 else 1.0
         self._filtered = np.zeros(n)
         self._last_error = np.zeros(n)

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from sma_gym.envs.task import DutyRange
-from sma_gym_agents.controllers import Controller, ControllerSpec, spec_by_label
+from sma_gym_agents.controllers import Controller, ControllerSpec, require_filter_cutoff_hz, spec_by_label
 
 
 def env_attr(env: Any, name: str, per_env: bool = False) -> Any:
@@ -65,6 +65,10 @@ class ControllerPolicy:
     """One of the report's controllers as a policy (see the module docstring)."""
 
     def __init__(self, spec: ControllerSpec | str, env: Any, filter_cutoff_hz: float | None = None):
+        if not isinstance(spec, (str, ControllerSpec)):
+            raise ValueError(f"spec = {spec!r}: expected a controller's label (e.g. 'VSC3 + FF') or a ControllerSpec")
+        if filter_cutoff_hz is not None:
+            filter_cutoff_hz = require_filter_cutoff_hz(filter_cutoff_hz)  # refused now, not at predict()
         self.spec = spec_by_label(spec) if isinstance(spec, str) else spec
         self.name = self.spec.label
         self.feature_names = tuple(env_attr(env, "feature_names"))

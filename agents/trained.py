@@ -63,6 +63,9 @@ class AgentPolicy:
                 "run it on a bank's observations as sma_gym_agents.bank.BankAgent.from_policy(agent, env)"
             )
         obs = np.asarray(observation, dtype=float)
+        if not np.isfinite(obs).all():
+            # As ControllerPolicy: a network maps NaN to a NaN action without a word.
+            raise ValueError(f"observation holds NaN or inf ({obs.ravel()[~np.isfinite(obs.ravel())][:3]}...)")
         single = obs.ndim == 1
         batch = obs[None, :] if single else obs
         if episode_start is not None:
@@ -184,9 +187,29 @@ def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
     except Exception as err:
         raise ValueError(f"policy = {str(path)!r}: not a {card.algo} model ({err})") from None
     policy = AgentPolicy.from_card(model, card, name or card.name or p.stem)
-    if card.env_id != BANK_ENV_ID:  # a bank model sees per-actuator rows (sma_gym_agents.bank)
+    if card.env_id != BANK_ENV_ID:
         _require_card_fits_model(policy, str(path))
+    else:  # a bank model sees per-actuator rows (sma_gym_agents.bank)
+        _require_bank_card_runs(policy, str(path))
     return policy
+
+
+def _require_bank_card_runs(policy: AgentPolicy, path: str) -> None:
+    """Run a bank agent's card once (its bank env with ``env_kwargs``, its residual base, one
+    action on a reset observation): a card naming an unknown base controller or a bank the
+    model cannot read is refused here, not in chapter 9 after the other chapters ran."""
+    from sma_gym_agents.bank import BankAgent
+
+    described = f"env {policy.env_id} with env_kwargs {policy.env_kwargs}, residual {policy.residual!r}"
+    try:
+        env = gym.make("sma_gym:" + BANK_ENV_ID, **policy.env_kwargs)
+        try:
+            obs, _ = env.reset(seed=0)
+            BankAgent.from_policy(policy, env).predict(obs)
+        finally:
+            env.close()
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"policy = {path!r}: its card ({described}) cannot be run: {err}") from None
 
 
 def _require_card_fits_model(policy: AgentPolicy, path: str) -> None:

@@ -81,7 +81,7 @@ class ModelConfig:
             raise ValueError(f"{source}: expected a JSON object, got {type(data).__name__}")
         if data.get("format") != FORMAT_NAME:
             raise ValueError(f"{source}: 'format' = {data.get('format')!r}: expected {FORMAT_NAME!r}")
-        if data.get("version") != FORMAT_VERSION:
+        if data.get("version") != FORMAT_VERSION or isinstance(data.get("version"), bool):  # true == 1
             raise ValueError(f"{source}: 'version' = {data.get('version')!r}: expected {FORMAT_VERSION}")
         unknown = sorted(set(data) - set(FILE_KEYS))
         if unknown:

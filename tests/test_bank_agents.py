@@ -200,3 +200,34 @@ def test_a_saved_residual_bank_agent_runs_its_base_on_any_n(tmp_path):
         expected = np.clip((base + 1) / 2 + correction.reshape(-1), 0, 1) * 2 - 1
         assert action.shape == (n,)
         np.testing.assert_allclose(action, expected, atol=1e-6)
+
+
+def test_a_bank_agents_card_is_run_when_loaded_not_after_the_other_chapters(tmp_path):
+    """A card naming an unknown residual base, or a bank of 2.5 actuators, loaded without a
+    word; ``sma-gym evaluate`` refused it only in chapter 9, after Table 6.1 and chapters 7-8."""
+    from stable_baselines3 import SAC
+
+    from sma_gym_agents.trained import load_policy, save_policy
+
+    kwargs = {"n_actuators": 4, "control_period_s": 0.01}
+    venv = make_vec_env("SMAMultiplexed-v0", 1, kwargs, 1, 0, max_episode_steps=20)
+    model = SAC("MlpPolicy", venv, learning_starts=20, batch_size=32, policy_kwargs={"net_arch": [8]}, seed=0)
+    venv.close()
+    card = {
+        "format": "sma-gym-policy",
+        "algo": "SAC",
+        "name": "bank",
+        "env_id": "SMAMultiplexed-v0",
+        "env_kwargs": kwargs,
+        "frame_stack": 1,
+    }
+    assert load_policy(save_policy(model, tmp_path / "ok.zip", card)).env_kwargs == kwargs
+    for name, bad, field in (
+        ("base", {"residual": "bogus"}, "bogus"),
+        # A residual agent's rows carry the base's action: this model was trained without one.
+        ("width", {"residual": "VSC3 + FF"}, "observation shape"),
+        ("half", {"env_kwargs": {**kwargs, "n_actuators": 2.5}}, "n_actuators"),
+    ):
+        path = save_policy(model, tmp_path / f"{name}.zip", {**card, **bad})
+        with pytest.raises(ValueError, match=f"{name}.zip.*card.*{field}"):
+            load_policy(path)

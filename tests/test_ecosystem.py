@@ -507,3 +507,10 @@ def test_rendering_a_native_vector_env_without_a_render_mode_warns_and_gives_no_
         env.reset(seed=0)
         with pytest.warns(UserWarning, match="render_mode"):
             assert env.render() == (None, None)
+
+
+def test_reset_envs_given_one_index_instead_of_a_list_says_so():
+    with pytest.raises(
+        ValueError, match=r"reset_envs indices = 0: expected a sequence of sub-env indices, e\.g\. \[0\]"
+    ):
+        native("SMATracking-v0", 2).unwrapped.reset_envs(0)

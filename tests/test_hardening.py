@@ -454,7 +454,24 @@ BAD_REFERENCES = [
     ({"kind": "step", "t1_s": float("nan")}, "t1_s"),
     ({"kind": "step", "level1_m": "high"}, "level1_m"),
     ({"kind": "ramp", "d1_s": float("inf")}, "d1_s"),
+    # A subnormal duration passed "> 0" and made the ramp's rate inf and the observation NaN.
+    ({"kind": "ramp", "t1_s": 0.0, "level1_m": 0.005, "d1_s": 1e-320}, "d1_s"),
 ]
+
+
+def test_a_reference_object_is_checked_as_its_dict_would_be():
+    """A Reference passed as the option skipped every check: NaN and infinite levels gave a
+    NaN observation and reward, and a 1 m level was accepted."""
+    import gymnasium as gym
+
+    from sma_gym.envs.references import STEP, Reference, report_step
+
+    env = gym.make("sma_gym:SMATracking-v0")
+    for params, field in (([0.0, np.nan, np.inf, 0.0], "level1_m"), ([0.5, 1.0, np.inf, 1.0], "level1_m")):
+        with pytest.raises(ValueError, match=field):
+            env.reset(seed=0, options={"reference": Reference(STEP, np.array(params))})
+    obs, _ = env.reset(seed=0, options={"reference": report_step()})
+    assert np.isfinite(obs).all()
 
 
 @pytest.mark.parametrize("reference, field", BAD_REFERENCES)
@@ -1846,3 +1863,41 @@ def test_a_stop_during_the_last_renames_waits_until_they_are_all_done(tmp_path, 
         "a.md": "new",
         "b.png": "new",
     }
+
+
+def test_a_controller_given_twice_or_a_bad_filter_is_refused_before_anything_runs(tmp_path, capsys):
+    """``--baselines PID,pid`` ran the PID twice into one row; ``ControllerPolicy`` took a
+    NaN, negative or infinite filter cut-off as "no filter" without a word, a string failed
+    only at the first predict, and a number as the controller raised an AttributeError."""
+    import gymnasium as gym
+
+    from sma_gym.cli import main
+    from sma_gym_agents import ControllerPolicy
+
+    for given in ("PID,PID", "PID, pid", "VSC3 + FF,vsc3+ff"):
+        assert main(["evaluate", "--baselines", given, "--experiments", "6.1", "--out", str(tmp_path / "e")]) == 2
+        assert "given twice" in capsys.readouterr().err
+    assert not (tmp_path / "e").exists()
+    env = gym.make("sma_gym:SMATracking-v0")
+    for cutoff in (float("nan"), -5.0, float("inf"), "100", True):
+        with pytest.raises(ValueError, match=r"filter_cutoff_hz = .*expected"):
+            ControllerPolicy("PID", env, filter_cutoff_hz=cutoff)
+    for spec in (5, None):
+        with pytest.raises(ValueError, match=r"spec = .*expected a controller's label"):
+            ControllerPolicy(spec, env)
+    assert ControllerPolicy("PID", env, filter_cutoff_hz=0).predict(env.reset(seed=0)[0])[0].shape == (1,)
+
+
+def test_a_trained_agent_refuses_a_nan_observation_and_an_effect_file_names_its_bad_parameters(tmp_path):
+    import gymnasium as gym
+
+    from sma_gym.effects import EffectSet
+    from sma_gym_agents.trained import load_policy, save_policy
+
+    agent = load_policy(save_policy(_tiny_model(), tmp_path / "agent.zip", CARD))
+    obs, _ = gym.make("sma_gym:SMATracking-v0").reset(seed=0)
+    obs[2] = np.nan
+    with pytest.raises(ValueError, match="observation holds NaN"):
+        agent.predict(obs)
+    with pytest.raises(ValueError, match=r"effects\['sensor_lag'\]\['parameters'\] = \[1\]: expected a mapping"):
+        EffectSet.of({"sensor_lag": {"parameters": [1]}})

@@ -251,3 +251,23 @@ def test_a_named_pipe_is_refused_not_waited_on(tmp_path):
         load_trace(pipe)
     with pytest.raises(ValueError, match="pipe.csv.*named pipe, expected a file"):
         load_model(str(pipe))
+
+
+def test_small_format_slips_are_named_not_read_as_something_else(tmp_path):
+    """Python's float reads "1_0e-6" as 1e-5; a sidecar's ``"notes": null`` became the
+    text "None"; a model file's ``"version": true`` passed as version 1."""
+    from sma_gym.model import load_model
+
+    rows = "".join(f"{k * 0.001:.3f},0.1,{k * 1e-6:.6g}\n" for k in range(30))
+    f = write(tmp_path / "u.csv", "t,duty,position\n" + rows.replace("0.002,0.1,2e-06", "0.002,0.1,2_0e-06"))
+    with pytest.raises(MeasuredDataError, match=r"u\.csv:4:position: '2_0e-06' is not a number"):
+        load_trace(f)
+    g = write(tmp_path / "s.csv", "t,duty,position\n" + rows)
+    write(tmp_path / "s.csv.json", json.dumps({"notes": None, "model": 5}))
+    with pytest.raises(MeasuredDataError, match=r"notes = None: expected a string") as err:
+        load_trace(g)
+    assert "model = 5: expected a string" in str(err.value)
+    model = tmp_path / "m.json"
+    model.write_text(json.dumps({"format": "sma-gym-model", "version": True}))
+    with pytest.raises(ValueError, match="'version' = True"):
+        load_model(str(model))

@@ -193,6 +193,8 @@ def _parse_float(text: str) -> float:
     text = text.strip()
     if text == "" or text.lower() in ("nan", "na", "null", "none"):
         return math.nan
+    if "_" in text:
+        raise ValueError(text)  # Python reads "1_0e-6" as 1e-5; no CSV writer means that
     return float(text)
 
 
@@ -389,7 +391,10 @@ def _read_sidecar(p: Path) -> tuple[dict[str, Any], list[str]]:
                 except ValueError as err:
                     problems.append(f"{side}: {err}")
             elif key in SIDECAR_TEXT_KEYS:
-                conditions[key] = str(value)
+                if isinstance(value, str):
+                    conditions[key] = value
+                else:  # str() made null "None" and 5 "5"
+                    problems.append(f"{side}: {key} = {value!r}: expected a string")
             else:
                 problems.append(
                     f"{side}:{key}: unknown key; expected {', '.join(list(SIDECAR_KEYS) + list(SIDECAR_TEXT_KEYS))}"

@@ -312,9 +312,13 @@ class EffectSet:
                     unknown = set(value) - {"parameters", "form"}
                     if unknown:
                         raise ValueError(f"effects[{name!r}]: unknown key(s) {sorted(unknown)}")
-                    settings.append(
-                        EffectSetting(name, dict(value.get("parameters", {})), value.get("form", "default"))
-                    )
+                    parameters = value.get("parameters", {})
+                    if not isinstance(parameters, Mapping):
+                        raise ValueError(
+                            f"effects[{name!r}]['parameters'] = {parameters!r}: expected a mapping of parameter "
+                            "names to values"
+                        )
+                    settings.append(EffectSetting(name, dict(parameters), value.get("form", "default")))
                 else:
                     settings.append(EffectSetting(name, dict(value)))
             return cls(tuple(settings))

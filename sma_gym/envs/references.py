@@ -201,6 +201,10 @@ def resolve(spec: Any, rng: np.random.Generator, stroke_m: float, default: str |
         choices = (default,) if isinstance(default, str) else tuple(default)
         spec = choices[int(rng.integers(len(choices)))] if len(choices) > 1 else choices[0]
     if isinstance(spec, Reference):
+        # Checked as its dict would be: one built by hand skips no check. Kept as given.
+        fields = spec.describe()
+        del fields["name"]
+        _from_mapping(fields, rng, stroke_m)
         return spec
     if isinstance(spec, str):
         if spec in ("report-step", "report-sine"):
@@ -220,6 +224,10 @@ def resolve(spec: Any, rng: np.random.Generator, stroke_m: float, default: str |
 
 MAX_REFERENCE_FREQUENCY_HZ = 100.0
 """Fastest sine accepted: far above what a wire (thermal time constants of ~1 s) can follow."""
+
+MIN_RAMP_DURATION_S = 1e-6
+"""Shortest ramp accepted [s]: far below a control period; a subnormal duration made the
+ramp's rate (level / duration) overflow to inf and the reference NaN."""
 
 
 def _field(kind: str, key: str, value: Any) -> float:
@@ -308,8 +316,11 @@ def _from_mapping(spec: Mapping[str, Any], rng: np.random.Generator, stroke_m: f
             raise ValueError(
                 f"reference {kind!r} {key} = {value!r}: expected a time >= t1_s = {values['t1_s']!r} s, or inf (never)"
             )
-        elif key in ("d1_s", "d2_s") and not (value > 0 and math.isfinite(value)):
-            raise ValueError(f"reference {kind!r} {key} = {value!r}: expected a positive finite duration (s)")
+        elif key in ("d1_s", "d2_s") and not (MIN_RAMP_DURATION_S <= value and math.isfinite(value)):
+            raise ValueError(
+                f"reference {kind!r} {key} = {value!r}: expected a finite duration >= {MIN_RAMP_DURATION_S:g} s "
+                "(a shorter ramp is a step)"
+            )
         elif key == "frequency_hz" and not 0.0 < value <= MAX_REFERENCE_FREQUENCY_HZ:
             raise ValueError(
                 f"reference {kind!r} {key} = {value!r}: expected a value in (0, {MAX_REFERENCE_FREQUENCY_HZ:g}] Hz"

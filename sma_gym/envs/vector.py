@@ -251,6 +251,8 @@ class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
         Returns ``(observation, info)`` per index, in the order given (info: that sub-env's
         entries as Python scalars).
         """
+        if isinstance(indices, (int, np.integer)) or not hasattr(indices, "__iter__"):
+            raise ValueError(f"reset_envs indices = {indices!r}: expected a sequence of sub-env indices, e.g. [0]")
         indices = list(indices)
         for i in indices:
             if isinstance(i, (bool, np.bool_)) or not isinstance(i, (int, np.integer)) or not 0 <= i < self.num_envs:
