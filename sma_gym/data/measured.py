@@ -28,6 +28,8 @@ named ``<file>.json`` (e.g. ``step01.csv.json``; ``step01.json`` is accepted too
 Loading checks everything and reports *every* problem with file, row and column (missing
 columns, non-monotonic time, NaN where not allowed, duty outside [0, 1], unit slips such
 as a position in millimetres or time in milliseconds). Files are only read, never written.
+A double quote left open (it would swallow the lines after it) is named with its row, and a
+cell such as ``1_0e-6`` (Python's float reads 1e-5) is no number.
 A UTF-8 byte-order mark (Excel's "CSV UTF-8") and blank lines at the end are accepted; a
 file needs at least two samples (``sma-gym diagnose`` loads with ``min_rows=DIAGNOSIS_MIN_ROWS``:
 it fits more than ten and holds out 30 %) and at most ``MAX_CSV_BYTES`` (the read stops there).
