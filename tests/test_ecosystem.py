@@ -500,9 +500,10 @@ def test_an_episode_that_ends_on_its_last_step_is_terminated_and_truncated_as_in
     assert np.array_equal(term_a, term_b) and np.array_equal(trunc_a, trunc_b)
 
 
-def test_rendering_a_native_vector_env_without_a_render_mode_warns_and_gives_no_frames_as_the_sync_env():
-    ours = native("SMATracking-v0", 2)
-    theirs = gym.make_vec("sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="sync")
+@pytest.mark.parametrize("env_id", ["SMATracking-v0", "SMAMultiplexed-v0"])
+def test_rendering_a_native_vector_env_without_a_render_mode_warns_and_gives_no_frames_as_the_sync_env(env_id):
+    ours = native(env_id, 2)
+    theirs = gym.make_vec("sma_gym:" + env_id, num_envs=2, vectorization_mode="sync")
     for env in (ours, theirs):
         env.reset(seed=0)
         with pytest.warns(UserWarning, match="render_mode"):

@@ -696,20 +696,25 @@ def _same(a, b):
     np.testing.assert_array_equal(a[4], b[4])
 
 
+@pytest.mark.parametrize("seed", [None, 11])
 @pytest.mark.parametrize(
     "env_id, bad",
     [
         ("SMARobust-v0", {"reference": "bogus"}),
         ("SMATracking-v0", {"reference": "bogus"}),
-        ("SMAMultiplexed-v0", {"references": ["report-step", "report-step", "bogus"]}),
+        # The first reference draws from the generator before the second is refused.
+        ("SMAMultiplexed-v0", {"references": [None, "report-step", "bogus"]}),
     ],
 )
-def test_a_refused_reset_changes_nothing_and_the_episode_goes_on_as_it_was(env_id, bad):
+def test_a_refused_reset_changes_nothing_and_the_episode_goes_on_as_it_was(env_id, bad, seed):
     """The robust env drew and set its new condition (another supply voltage) before the
     reference was refused, and the bank set its first references: the running episode went
-    on with half a reset. Now it goes on exactly as an env never asked."""
+    on with half a reset. Now it goes on exactly as an env never asked, with its generator
+    and seed (the unwrapped env: ``gym.make``'s TimeLimit restarts its count before any env
+    can refuse)."""
     kwargs = {"n_actuators": 3} if env_id == "SMAMultiplexed-v0" else {}
-    envs = [gym.make("sma_gym:" + env_id, **kwargs) for _ in range(2)]
+    noisy = {"position_noise_std_m": 1e-5}  # the generator's draws reach the observations
+    envs = [gym.make("sma_gym:" + env_id, **kwargs, **noisy).unwrapped for _ in range(2)]
     action = np.full(envs[0].action_space.shape, 0.3, dtype=np.float32)
     for env in envs:
         env.reset(seed=0)
@@ -717,8 +722,9 @@ def test_a_refused_reset_changes_nothing_and_the_episode_goes_on_as_it_was(env_i
             env.step(action)
     before = _snapshot(envs[0])
     with pytest.raises(ValueError, match="bogus"):
-        envs[0].reset(options=bad)
+        envs[0].reset(seed=seed, options=bad)
     _same(_snapshot(envs[0]), before)
+    assert envs[0].np_random_seed == envs[1].np_random_seed == 0
     for _ in range(5):
         a, b = envs[0].step(action), envs[1].step(action)
         np.testing.assert_array_equal(a[0], b[0])
@@ -727,12 +733,13 @@ def test_a_refused_reset_changes_nothing_and_the_episode_goes_on_as_it_was(env_i
     np.testing.assert_array_equal(envs[0].reset()[0], envs[1].reset()[0])
 
 
+@pytest.mark.parametrize("seed", [None, 11])
 @pytest.mark.parametrize("env_id", ["SMARobust-v0", "SMAMultiplexed-v0"])
-def test_a_refused_reset_of_a_native_vector_env_changes_no_sub_env(env_id):
+def test_a_refused_reset_of_a_native_vector_env_changes_no_sub_env(env_id, seed):
     """The robust sub-env's new condition was set before its reference was refused; the
     bank's first references were set before a later one was."""
     kwargs = {"n_actuators": 2} if env_id == "SMAMultiplexed-v0" else {}
-    bad = {"references": ["report-step", "bogus"]} if env_id == "SMAMultiplexed-v0" else {"reference": "bogus"}
+    bad = {"references": [None, "bogus"]} if env_id == "SMAMultiplexed-v0" else {"reference": "bogus"}
     envs = [
         gym.make_vec("sma_gym:" + env_id, num_envs=2, vectorization_mode="vector_entry_point", **kwargs)
         for _ in range(2)
@@ -744,8 +751,43 @@ def test_a_refused_reset_of_a_native_vector_env_changes_no_sub_env(env_id):
             env.step(action)
     before = _snapshot(envs[0])
     with pytest.raises(ValueError, match="bogus"):
-        envs[0].reset(options=bad)
+        envs[0].reset(seed=seed, options=bad)
     _same(_snapshot(envs[0]), before)
     a, b = envs[0].step(action), envs[1].step(action)
     np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(envs[0].reset()[0], envs[1].reset()[0])
+
+
+def test_a_level_that_only_some_robust_sub_envs_reach_is_refused_for_all_and_changes_none():
+    """Robust sub-envs draw wires of different strokes: sub-env 0 was reset in full before a
+    later one refused the same level."""
+    import copy
+
+    from sma_gym.params import preset
+
+    short = preset("standard").with_changes(**{"wire.length_m": 0.2})  # strokes 7.3-8.2 mm
+    envs = [
+        gym.make_vec("sma_gym:SMARobust-v0", num_envs=3, vectorization_mode="vector_entry_point", model=short)
+        for _ in range(2)
+    ]
+    u = envs[0].unwrapped
+    for seed in range(50):
+        envs[0].reset(seed=seed)
+        # The strokes the next reset will draw, from copies of the sub-envs' generators.
+        strokes = [
+            u.settings.conditions.draw(u.settings.model, copy.deepcopy(g))[0].actuator.usable_stroke_m for g in u._rngs
+        ]
+        if strokes[0] > min(strokes[1:]):
+            break
+    else:
+        pytest.fail("no seed in 50 draws a first sub-env longer than a later one")
+    envs[1].reset(seed=seed)
+    level_m = (strokes[0] + min(strokes[1:])) / 2.0
+    before = _snapshot(envs[0])
+    with pytest.raises(ValueError, match="level1_m"):
+        envs[0].reset(options={"reference": {"kind": "step", "level1_m": level_m}})
+    _same(_snapshot(envs[0]), before)
+    assert [c["supply_voltage_v"] for c in u.conditions] == [
+        c["supply_voltage_v"] for c in envs[1].unwrapped.conditions
+    ]
     np.testing.assert_array_equal(envs[0].reset()[0], envs[1].reset()[0])

@@ -147,6 +147,15 @@ MODEL_CHANGE = """
       was accepted and changed nothing). `reference="report-step"` or `"report-sine"` on a
       model whose stroke cannot reach its fixed levels is refused at make, as a dict is (it
       was refused only at the first reset).
+    * main (unreleased, 2026-12-07): a refused `reset()` (a bad option) changes nothing:
+      not the running episode, its generator or its seed (the robust env had set its
+      newly drawn condition and the bank its first references before the option was
+      refused, and a given seed was applied); `gym.make`'s `TimeLimit` still restarts its
+      count. The native vector envs truncate an episode that ends on its last step even
+      when it terminated there too, as `TimeLimit` does (they reported it terminated
+      only), and `render()` without frames warns and returns one `None` per sub-env, as
+      `SyncVectorEnv` does. A ramp reference shorter than 1 us and a hand-built
+      `Reference` that fails a dict's checks are refused.
     """
 
 ROBUST_MODEL_CHECK = """

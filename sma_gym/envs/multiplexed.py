@@ -209,19 +209,22 @@ class SMAMultiplexedEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
         return self.multiplexer.layout(self.duty_for(actions))
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        kept = (self._np_random, self._np_random_seed, self.sim.rng)
         super().reset(seed=seed)
         self.sim.rng = self.np_random
-        specs = reference_specs(require_options(options), self.n)
-        strokes = self.sim.usable_stroke_m
-        # Every reference drawn before any is set: one refused leaves the running episode as it was.
+        # Every reference drawn before any is set: one refused leaves the running episode as
+        # it was, its generator and seed too.
         before = self.np_random.bit_generator.state
         try:
+            specs = reference_specs(require_options(options), self.n)
+            strokes = self.sim.usable_stroke_m
             drawn = [
                 refs.resolve(spec, self.np_random, float(strokes[j]), self.settings.reference)
                 for j, spec in enumerate(specs)
             ]
         except Exception:
             self.np_random.bit_generator.state = before
+            self._np_random, self._np_random_seed, self.sim.rng = kept
             raise
         for j, ref in enumerate(drawn):
             self.task.set_reference(j, ref)
@@ -408,13 +411,19 @@ class SMAMultiplexedVectorEnv(MadeWith, ImportableSpec, VectorEnv):
         if mask is None:
             mask = np.ones(self.num_envs, dtype=bool)
         first = int(np.flatnonzero(mask)[0])
+        kept = (self._np_random, self._np_random_seed, list(self._rngs))
         if seeds[first] is not None:
             # As SMAVectorEnv: the vector env's own generator and np_random_seed follow the first seed.
             self._np_random, self._np_random_seed = seeding.np_random(seeds[first])
         for b in np.flatnonzero(mask):
             if seeds[b] is not None:
                 self._rngs[b], _ = seeding.np_random(seeds[b])
-        self._reset_banks(np.flatnonzero(mask), options)
+        try:
+            self._reset_banks(np.flatnonzero(mask), options)
+        except Exception:
+            # Refused: not even the seeds are applied.
+            self._np_random, self._np_random_seed, self._rngs[:] = kept
+            raise
         return self._observation(), self._info(mask)
 
     def _reset_banks(self, banks: np.ndarray, options: dict) -> None:
@@ -422,7 +431,7 @@ class SMAMultiplexedVectorEnv(MadeWith, ImportableSpec, VectorEnv):
         specs = reference_specs(options, n, also=("reset_mask",))
         # Every bank's references drawn before any is set: one refused leaves every bank's
         # episode and generator as it was.
-        drawn, before = {}, []
+        drawn, before, generators = {}, [], list(self._rngs)
         try:
             for b in banks:
                 if self._rngs[b] is None:
@@ -435,6 +444,7 @@ class SMAMultiplexedVectorEnv(MadeWith, ImportableSpec, VectorEnv):
         except Exception:
             for rng, state in before:
                 rng.bit_generator.state = state
+            self._rngs[:] = generators  # and no generator made for it
             raise
         for b in banks:
             for j in range(n):
@@ -482,6 +492,15 @@ class SMAMultiplexedVectorEnv(MadeWith, ImportableSpec, VectorEnv):
             truncated = np.zeros(m, dtype=bool)
         self._ended = terminated | truncated
         return self._observation(), reward, terminated, truncated, self._info()
+
+    def render(self) -> tuple[None, ...]:
+        """No frames (this vector env does not render): a warning and one None per bank, as
+        Gymnasium's sync env returns without a render mode."""
+        gym.logger.warn(
+            "render() of the bank vector env: no frames (it takes no render_mode; "
+            "make_vec(..., vectorization_mode='sync', render_mode='rgb_array') draws them)"
+        )
+        return (None,) * self.num_envs
 
     def _observation(self) -> np.ndarray:
         return self._obs.reshape(self.num_envs, -1).copy()

@@ -215,7 +215,13 @@ def draw_actuator(
 ) -> tuple[ModelConfig | None, dict[str, Any] | None, refs.Reference]:
     """Phase one of resetting actuator i: check ``options`` and draw its condition (robust;
     else ``None`` for both) and reference from ``rng``. Changes nothing else; refused, it
-    leaves ``rng`` as it found it, so a bad option leaves the episode running as it was."""
+    leaves ``rng`` as it found it, so a bad option leaves the episode running as it was
+    (Gymnasium's ``TimeLimit`` wrapper of ``gym.make`` restarts its step count before the
+    env's reset runs, which no env can undo).
+
+    A single env and the vector env reset an actuator only through this and
+    :func:`start_actuator` (the vector env draws for every sub-env before it starts any),
+    so that the same seed gives the same episode in both."""
     options = require_options(options)
     unknown = set(options) - {"reference"}
     if unknown:
@@ -249,20 +255,6 @@ def start_actuator(
     sim.reset(np.array([i]))
     state.reset_actuator(i, sim)
     return condition
-
-
-def reset_actuator(
-    sim: Simulator, state: task.TaskState, i: int, rng: np.random.Generator, settings: Settings, options: dict | None
-) -> dict[str, Any] | None:
-    """Reset actuator i: draw its condition (robust) and reference from ``rng``.
-
-    The one place a single env and the vector env reset an actuator (the vector env runs
-    its two phases, :func:`draw_actuator` for every sub-env first, then
-    :func:`start_actuator`), so that the same seed gives the same episode in both. Returns
-    the drawn condition (``None`` unless the variant randomises conditions); the reference
-    is ``state.references[i]``.
-    """
-    return start_actuator(sim, state, i, draw_actuator(sim, i, rng, settings, options))
 
 
 class MadeWith:
@@ -348,9 +340,16 @@ class SMAEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
         return self.duty_range.action_for(duty)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        kept = (self._np_random, self._np_random_seed, self.sim.rng)
         super().reset(seed=seed)
         self.sim.rng = self.np_random
-        self.condition = reset_actuator(self.sim, self.task, 0, self.np_random, self.settings, options)
+        try:
+            drawn = draw_actuator(self.sim, 0, self.np_random, self.settings, options)
+        except Exception:
+            # Refused: not even the seed is applied, so the running episode goes on as it was.
+            self._np_random, self._np_random_seed, self.sim.rng = kept
+            raise
+        self.condition = start_actuator(self.sim, self.task, 0, drawn)
         if self.condition is not None:
             self._condition_info = condition_info(self.condition)
             self._set_scales()

@@ -235,12 +235,18 @@ class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
         if mask is None:
             mask = self._all_true
         first = int(np.flatnonzero(mask)[0])
+        kept = (self._np_random, self._np_random_seed, list(self._rngs))
         if seeds[first] is not None:
             self._np_random, self._np_random_seed = seeding.np_random(seeds[first])
         for i in np.flatnonzero(mask):
             if seeds[i] is not None:
                 self._rngs[i], _ = seeding.np_random(seeds[i])
-        self._reset_envs(np.flatnonzero(mask), options)
+        try:
+            self._reset_envs(np.flatnonzero(mask), options)
+        except Exception:
+            # Refused: not even the seeds are applied.
+            self._np_random, self._np_random_seed, self._rngs[:] = kept
+            raise
         return self._obs.copy(), self._info(mask)
 
     def reset_envs(
@@ -251,7 +257,7 @@ class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
         Returns ``(observation, info)`` per index, in the order given (info: that sub-env's
         entries as Python scalars).
         """
-        if isinstance(indices, (int, np.integer)) or not hasattr(indices, "__iter__"):
+        if np.ndim(indices) == 0:
             raise ValueError(f"reset_envs indices = {indices!r}: expected a sequence of sub-env indices, e.g. [0]")
         indices = list(indices)
         for i in indices:
@@ -273,7 +279,7 @@ class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
         """Start a new episode in the sub-envs ``envs``, each drawing from its own generator."""
         # Every sub-env's draw first: an option refused for one (a level past its drawn wire's
         # stroke) then leaves every sub-env's episode and generator as it was.
-        drawn, before = [], []
+        drawn, before, generators = [], [], list(self._rngs)
         try:
             for i in envs:
                 if self._rngs[i] is None:
@@ -283,6 +289,7 @@ class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
         except Exception:
             for i, state in zip(envs, before):
                 self._rngs[i].bit_generator.state = state
+            self._rngs[:] = generators  # and no generator made for it
             raise
         for i, episode in zip(envs, drawn):
             condition = start_actuator(self.sim, self.task, int(i), episode)
