@@ -61,6 +61,12 @@ def env_attr(env: Any, name: str, per_env: bool = False) -> Any:
         ) from None
 
 
+def require_finite_observation(obs: np.ndarray) -> None:
+    """ValueError naming the first non-finite values of a policy's observation."""
+    if not np.isfinite(obs).all():
+        raise ValueError(f"observation holds NaN or inf ({obs.ravel()[~np.isfinite(obs.ravel())][:3]}...)")
+
+
 class ControllerPolicy:
     """One of the report's controllers as a policy (see the module docstring)."""
 
@@ -111,9 +117,7 @@ class ControllerPolicy:
                 f"observation of shape {obs.shape}: expected ({self.k},), (n * {self.k},) or a batch of them "
                 f"(batch, n * {self.k}) from {self.spec.label}'s env"
             )
-        if not np.isfinite(obs).all():
-            # A controller fed NaN would return NaN duties, which no env accepts.
-            raise ValueError(f"observation holds NaN or inf ({obs.ravel()[~np.isfinite(obs.ravel())][:3]}...)")
+        require_finite_observation(obs)  # a controller fed NaN returns NaN duties, which no env accepts
         batch = obs.reshape(1 if single else obs.shape[0], -1, self.k)
         n_batch, units, _ = batch.shape
         n = n_batch * units

@@ -20,6 +20,7 @@ import sma_gym  # noqa: F401  (registers the ids)
 from sma_gym._io import atomic_path
 from sma_gym_agents.card import BANK_ENV_ID, PolicyCard
 from sma_gym_agents.history import HistoryFeatures
+from sma_gym_agents.policies import require_finite_observation
 from sma_gym_agents.residual import ResidualStep
 
 
@@ -63,9 +64,7 @@ class AgentPolicy:
                 "run it on a bank's observations as sma_gym_agents.bank.BankAgent.from_policy(agent, env)"
             )
         obs = np.asarray(observation, dtype=float)
-        if not np.isfinite(obs).all():
-            # As ControllerPolicy: a network maps NaN to a NaN action without a word.
-            raise ValueError(f"observation holds NaN or inf ({obs.ravel()[~np.isfinite(obs.ravel())][:3]}...)")
+        require_finite_observation(obs)  # a network maps NaN to a NaN action without a word
         single = obs.ndim == 1
         batch = obs[None, :] if single else obs
         if episode_start is not None:
