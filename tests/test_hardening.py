@@ -1069,6 +1069,8 @@ def test_locked_folder_removes_only_the_empty_folders_it_created_on_failure(tmp_
         (["--hyperparams", "learning_rate:abc"], "learning_rate = 'abc': expected a number > 0"),
         (["--hyperparams", "batch_size:abc"], "batch_size = 'abc': expected an integer > 0"),  # crashed mid-training
         (["--hyperparams", "buffer_size:5000"], "--quick with --hyperparams buffer_size"),  # was silently replaced
+        (["--seed", "4294967296"], "--seed 4294967296: expected an integer in [0, 4294967295]"),  # numpy's words
+        (["--seeds", "2", "--seed", "4294967295"], "the last seed, 4294967296, is past 4294967295"),
     ],
 )
 def test_train_refuses_bad_options_and_leaves_no_run_folder(tmp_path, args, needle):
@@ -1901,3 +1903,37 @@ def test_a_trained_agent_refuses_a_nan_observation_and_an_effect_file_names_its_
         agent.predict(obs)
     with pytest.raises(ValueError, match=r"effects\['sensor_lag'\]\['parameters'\] = \[1\]: expected a mapping"):
         EffectSet.of({"sensor_lag": {"parameters": [1]}})
+
+
+def test_overwrite_keeps_the_earlier_run_when_the_new_one_is_refused_at_its_start(tmp_path, capsys):
+    """``--overwrite`` deleted the earlier run's results, models and checkpoints, and then the
+    algorithm refused a value (here an unknown policy): nothing of either run was left."""
+    out = tmp_path / "run"
+    earlier = {
+        "results.md": "earlier",
+        "best_model.zip": "model",
+        "checkpoints/ckpt_1.zip": "ckpt",
+        "notes.txt": "mine",
+    }
+    for name, text in earlier.items():
+        (out / name).parent.mkdir(parents=True, exist_ok=True)
+        (out / name).write_text(text)
+    argv = ["--quick", "--no-progress", "--overwrite", "--out", str(out), "--hyperparams", "policy:Foo"]
+    proc = _run([sys.executable, str(ROOT / "train.py"), *argv])
+    assert proc.returncode == 2 and "Foo" in proc.stderr and "Traceback" not in proc.stderr, proc.stderr[-2000:]
+    assert {str(p.relative_to(out)) for p in out.rglob("*") if p.is_file()} == set(earlier)
+    assert all((out / name).read_text() == text for name, text in earlier.items())
+
+
+def test_an_empty_out_is_refused_not_read_as_no_out(capsys, monkeypatch):
+    """``--out ''`` trained into ./runs (an empty value read as "not given")."""
+    from sma_gym_agents.training import cli
+
+    def no_default(run):  # were the value read as "no --out", the run would go to runs/<run>
+        raise AssertionError("--out '' taken for no --out")
+
+    monkeypatch.setattr(cli, "default_out", no_default)
+    main = cli.main
+    for empty in ("", " "):
+        assert main(["--quick", "--no-progress", "--out", empty]) == 2
+        assert "--out" in capsys.readouterr().err

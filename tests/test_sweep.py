@@ -124,7 +124,7 @@ def test_workers_default_to_the_cores_this_process_may_run_on(monkeypatch):
     import os
 
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
-    args = argparse.Namespace(seeds=4, workers=None, resume=False, overwrite=False)
+    args = argparse.Namespace(seeds=4, seed=0, workers=None, resume=False, overwrite=False)
     sweep_module.check_sweep_args(args)
     assert args.workers == 1
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1, 2})

@@ -28,6 +28,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = parse_args(argv)  # --help works without the extra
         require(*TRAIN_NEEDS, purpose="train.py", extra="train")
+        if args.out is not None and not args.out.strip():
+            # '' read as "no --out" trained into ./runs; ' ' made a folder named ' '.
+            raise ValueError(f"--out {args.out!r}: expected a folder name (leave the option out for runs/<run>)")
         with sigterm_as_interrupt():
             if args.seeds is not None or args.workers is not None or args.resume:
                 from sma_gym_agents.training.sweep import check_sweep_args, sweep_main

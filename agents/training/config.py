@@ -404,8 +404,10 @@ class RunConfig:
     def checked(self) -> RunConfig:
         """This configuration with the device and residual label checked (and the label
         normalised); ``ValueError`` naming the option otherwise."""
-        if self.seed < 0:
-            raise ValueError(f"--seed {self.seed}: expected an integer >= 0 (numpy and torch seeds are unsigned)")
+        if not 0 <= self.seed <= MAX_SEED:
+            raise ValueError(
+                f"--seed {self.seed}: expected an integer in [0, {MAX_SEED}] (numpy's and torch's seeds are 32-bit unsigned)"
+            )
         check_device(self.device)
         for name in ("timesteps", "n_envs", "frame_stack", "threads", "eval_freq"):
             if getattr(self, name) < 1:
@@ -570,6 +572,38 @@ RUN_OUTPUTS = (
     "tb",
 )
 """What a run writes into its folder: what ``--overwrite`` deletes first, and nothing else."""
+
+
+MAX_SEED = 2**32 - 1
+"""Largest ``--seed`` (numpy's and torch's seeds are 32-bit unsigned)."""
+
+PREVIOUS_RUN_DIR = ".previous-run"
+"""Where ``--overwrite`` keeps the earlier run's outputs (inside ``--out``) until the new run
+has trained: a run refused or stopped before it trained puts them back."""
+
+
+def set_aside_outputs(out: Path) -> Path:
+    """Move a previous run's outputs in ``out`` into :data:`PREVIOUS_RUN_DIR` (``--overwrite``)
+    and return that folder: gone from ``out``, so none is mistaken for this run's, but not
+    yet deleted."""
+    import shutil
+
+    aside = out / PREVIOUS_RUN_DIR
+    if aside.exists():  # left by a process killed outright: older than the run in out
+        shutil.rmtree(aside)
+    aside.mkdir()
+    for name in RUN_OUTPUTS:
+        path = out / name
+        if path.exists() or path.is_symlink():
+            path.rename(aside / name)
+    return aside
+
+
+def put_back_outputs(aside: Path, out: Path) -> None:
+    """Undo :func:`set_aside_outputs`: the previous run's outputs back in ``out``."""
+    for path in aside.iterdir():
+        path.rename(out / path.name)
+    aside.rmdir()
 
 
 def prepare_out(out: Path) -> None:

@@ -7,11 +7,18 @@ and by every seed of a sweep (:mod:`sma_gym_agents.training.sweep`).
 from __future__ import annotations
 
 import contextlib
+import shutil
 import time
 from pathlib import Path
 from typing import Any
 
-from sma_gym_agents.training.config import RunConfig, prepare_out
+from sma_gym_agents.training.config import (
+    PREVIOUS_RUN_DIR,
+    RUN_OUTPUTS,
+    RunConfig,
+    put_back_outputs,
+    set_aside_outputs,
+)
 
 
 def train_and_compare(
@@ -31,16 +38,24 @@ def train_and_compare(
     from sma_gym_agents.training.learn import train
 
     with locked_folder(out):
-        if overwrite:
-            prepare_out(out)
+        # --overwrite: the earlier run is set aside, not deleted, until this one has trained,
+        # so that a run refused at its start (a value only the algorithm checks) changes nothing.
+        previous = set_aside_outputs(out) if overwrite else None
         write_json(out / "run.json", run.as_dict(), default=str)
         source = provenance()  # at the start: the code this process loaded, whatever is committed meanwhile
         started = time.perf_counter()
         try:
             info = train(run, out, progress=progress)
         except BaseException:
-            _forget_unstarted(out)
+            unstarted = _forget_unstarted(out)
+            if previous is not None:
+                if unstarted:
+                    put_back_outputs(previous, out)
+                else:
+                    shutil.rmtree(previous)
             raise
+        if previous is not None:
+            shutil.rmtree(previous)
         table, goals = compare(run, out)
         total = time.perf_counter() - started
         table += (
@@ -61,17 +76,23 @@ def train_and_compare(
     return table, goals
 
 
-def _forget_unstarted(out: Path) -> None:
-    """After a run that failed before writing any file but ``run.json`` (a bad option the
-    env or the algorithm refused), remove ``run.json`` and the empty folders it made, so
-    that the corrected command can use the same ``--out``. A run that got further keeps
-    its files (checkpoints are worth keeping)."""
-    from sma_gym._io import LOCK_NAME
+def _forget_unstarted(out: Path) -> bool:
+    """After a run that failed before writing any file but ``run.json`` and its TensorBoard
+    log (a bad option the env or the algorithm refused, an interrupt before the first
+    checkpoint), remove them and the empty folders it made, so that the corrected command
+    can use the same ``--out``; True then. A run that got further keeps its files
+    (checkpoints are worth keeping); False."""
 
-    files = [p for p in out.rglob("*") if p.is_file() and p.name not in ("run.json", LOCK_NAME)]
-    if files:
-        return
+    def written(p: Path) -> bool:  # by this run, worth keeping (the user's own files are neither)
+        return p.relative_to(out).parts[0] in set(RUN_OUTPUTS) - {"run.json", "tb"}
+
+    if any(p.is_file() and written(p) for p in out.rglob("*")):
+        return False
     (out / "run.json").unlink(missing_ok=True)
-    for folder in sorted((p for p in out.rglob("*") if p.is_dir()), key=lambda p: len(p.parts), reverse=True):
+    if (out / "tb").is_dir():
+        shutil.rmtree(out / "tb")
+    made = (p for p in out.rglob("*") if p.is_dir() and p.relative_to(out).parts[0] != PREVIOUS_RUN_DIR)
+    for folder in sorted(made, key=lambda p: len(p.parts), reverse=True):
         with contextlib.suppress(OSError):
             folder.rmdir()  # only ever succeeds on an empty folder
+    return True

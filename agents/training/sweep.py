@@ -38,7 +38,7 @@ import numpy as np
 
 from sma_gym._io import sigterm_as_interrupt, stopped
 from sma_gym._jit import available_cores
-from sma_gym_agents.training.config import ROOT, RunConfig, build_parser, parse_args
+from sma_gym_agents.training.config import MAX_SEED, ROOT, RunConfig, build_parser, parse_args
 
 if TYPE_CHECKING:  # compare imports the evaluation harness; the sweep needs it only at the end
     from sma_gym_agents.training.compare import Goal
@@ -466,6 +466,11 @@ def check_sweep_args(args: argparse.Namespace) -> None:
         raise ValueError("--resume keeps the finished seeds of --out and --overwrite deletes them: give one of the two")
     if args.seeds < 1:
         raise ValueError(f"--seeds {args.seeds}: expected an integer >= 1")
+    if args.seed + args.seeds - 1 > MAX_SEED:
+        raise ValueError(
+            f"--seed {args.seed} with --seeds {args.seeds}: the last seed, {args.seed + args.seeds - 1}, is past {MAX_SEED} "
+            "(numpy's and torch's seeds are 32-bit unsigned)"
+        )
     if args.workers is None:
         args.workers = max(1, min(args.seeds, available_cores()))
     if args.workers < 1:
