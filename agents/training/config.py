@@ -265,7 +265,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--overwrite",
         action="store_true",
-        help="allow a non-empty --out: the previous run's outputs there are deleted first (default: refuse a non-empty --out)",
+        help="allow a non-empty --out: the previous run's outputs there are replaced (a single run puts them back if "
+        "it is refused or stopped before it trained; a sweep deletes them first) (default: refuse a non-empty --out)",
     )
     p.add_argument("--device", default="cpu", help="torch device, e.g. cpu, cuda, cuda:1, mps (default cpu)")
     p.add_argument(
@@ -571,7 +572,7 @@ RUN_OUTPUTS = (
     "validation",
     "tb",
 )
-"""What a run writes into its folder: what ``--overwrite`` deletes first, and nothing else."""
+"""What a run writes into its folder: what ``--overwrite`` replaces (:func:`set_aside_outputs`), and nothing else."""
 
 
 MAX_SEED = 2**32 - 1

@@ -156,7 +156,7 @@ def train(run: RunConfig, out: Path, progress: bool = True) -> TrainingInfo:
 def _finish_best(run: RunConfig, model: Any, evaluation: EvalCallback, best: Path, train_s: float) -> None:
     """The best model's final card: the step it was chosen at and the training time."""
     best_at = int(model.num_timesteps)
-    saved_best = best.exists()  # only SaveBest writes it: --out was empty or cleared (prepare_out)
+    saved_best = best.exists()  # only SaveBest writes it: --out was empty or its earlier run set aside (--overwrite)
     if saved_best and evaluation.evaluations_timesteps:
         returns = [float(np.mean(r)) for r in evaluation.evaluations_results]
         best_at = int(evaluation.evaluations_timesteps[int(np.argmax(returns))])  # first maximum, as EvalCallback saves
