@@ -1918,11 +1918,13 @@ def test_overwrite_keeps_the_earlier_run_when_the_new_one_is_refused_at_its_star
     for name, text in earlier.items():
         (out / name).parent.mkdir(parents=True, exist_ok=True)
         (out / name).write_text(text)
+    (out / "mine").mkdir()  # the user's empty folder stays too
     argv = ["--quick", "--no-progress", "--overwrite", "--out", str(out), "--hyperparams", "policy:Foo"]
     proc = _run([sys.executable, str(ROOT / "train.py"), *argv])
     assert proc.returncode == 2 and "Foo" in proc.stderr and "Traceback" not in proc.stderr, proc.stderr[-2000:]
     assert {str(p.relative_to(out)) for p in out.rglob("*") if p.is_file()} == set(earlier)
     assert all((out / name).read_text() == text for name, text in earlier.items())
+    assert (out / "mine").is_dir() and not (out / ".previous-run").exists()
 
 
 def test_an_empty_out_is_refused_not_read_as_no_out(capsys, monkeypatch):

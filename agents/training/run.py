@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import Any
 
 from sma_gym_agents.training.config import (
-    PREVIOUS_RUN_DIR,
     RUN_OUTPUTS,
     RunConfig,
     put_back_outputs,
@@ -91,7 +90,8 @@ def _forget_unstarted(out: Path) -> bool:
     (out / "run.json").unlink(missing_ok=True)
     if (out / "tb").is_dir():
         shutil.rmtree(out / "tb")
-    made = (p for p in out.rglob("*") if p.is_dir() and p.relative_to(out).parts[0] != PREVIOUS_RUN_DIR)
+    # Only the run's own folders: a user's empty folder in --out stays, as the set-aside run.
+    made = (p for p in out.rglob("*") if p.is_dir() and p.relative_to(out).parts[0] in RUN_OUTPUTS)
     for folder in sorted(made, key=lambda p: len(p.parts), reverse=True):
         with contextlib.suppress(OSError):
             folder.rmdir()  # only ever succeeds on an empty folder
