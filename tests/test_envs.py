@@ -696,6 +696,21 @@ def _same(a, b):
     np.testing.assert_array_equal(a[4], b[4])
 
 
+def _refuse_beside_a_twin(envs, steps, bad, seed):
+    """Run two envs alike for ``steps``, have the first refuse a reset with ``bad``, and check
+    that nothing it holds changed; the action for the steps after."""
+    action = np.full(envs[0].action_space.shape, 0.3, dtype=np.float32)
+    for env in envs:
+        env.reset(seed=0)
+        for _ in range(steps):
+            env.step(action)
+    before = _snapshot(envs[0])
+    with pytest.raises(ValueError, match="bogus"):
+        envs[0].reset(seed=seed, options=bad)
+    _same(_snapshot(envs[0]), before)
+    return action
+
+
 @pytest.mark.parametrize("seed", [None, 11])
 @pytest.mark.parametrize(
     "env_id, bad",
@@ -715,15 +730,7 @@ def test_a_refused_reset_changes_nothing_and_the_episode_goes_on_as_it_was(env_i
     kwargs = {"n_actuators": 3} if env_id == "SMAMultiplexed-v0" else {}
     noisy = {"position_noise_std_m": 1e-5}  # the generator's draws reach the observations
     envs = [gym.make("sma_gym:" + env_id, **kwargs, **noisy).unwrapped for _ in range(2)]
-    action = np.full(envs[0].action_space.shape, 0.3, dtype=np.float32)
-    for env in envs:
-        env.reset(seed=0)
-        for _ in range(20):
-            env.step(action)
-    before = _snapshot(envs[0])
-    with pytest.raises(ValueError, match="bogus"):
-        envs[0].reset(seed=seed, options=bad)
-    _same(_snapshot(envs[0]), before)
+    action = _refuse_beside_a_twin(envs, 20, bad, seed)
     assert envs[0].np_random_seed == envs[1].np_random_seed == 0
     for _ in range(5):
         a, b = envs[0].step(action), envs[1].step(action)
@@ -744,15 +751,7 @@ def test_a_refused_reset_of_a_native_vector_env_changes_no_sub_env(env_id, seed)
         gym.make_vec("sma_gym:" + env_id, num_envs=2, vectorization_mode="vector_entry_point", **kwargs)
         for _ in range(2)
     ]
-    action = np.full(envs[0].action_space.shape, 0.3, dtype=np.float32)
-    for env in envs:
-        env.reset(seed=0)
-        for _ in range(10):
-            env.step(action)
-    before = _snapshot(envs[0])
-    with pytest.raises(ValueError, match="bogus"):
-        envs[0].reset(seed=seed, options=bad)
-    _same(_snapshot(envs[0]), before)
+    action = _refuse_beside_a_twin(envs, 10, bad, seed)
     a, b = envs[0].step(action), envs[1].step(action)
     np.testing.assert_array_equal(a[0], b[0])
     np.testing.assert_array_equal(envs[0].reset()[0], envs[1].reset()[0])
