@@ -1065,9 +1065,21 @@ def test_locked_folder_removes_only_the_empty_folders_it_created_on_failure(tmp_
         (["--hyperparams", "gamma:2"], "gamma = 2: expected a number in (0, 1]"),
         (["--hyperparams", "learning_rate:-1"], "learning_rate = -1"),
         (["--timesteps", "-5"], "--quick with --timesteps -5"),
-        (["--hyperparams", "ent_coef:bad"], "'bad'"),  # refused by stable-baselines3 itself, after run.json
+        (["--hyperparams", "ent_coef:bad"], "ent_coef = 'bad': expected a number > 0, 'auto'"),
+        # These crashed in training with a traceback, or trained an agent that never learnt:
+        (["--hyperparams", "gradient_steps:abc"], "gradient_steps = 'abc': expected an integer >= 1, or -1"),
+        (["--hyperparams", "gradient_steps:0"], "0 would never train"),
+        (["--hyperparams", "ent_coef:-1"], "ent_coef = -1: expected a number > 0"),
+        (["--hyperparams", "use_sde:3"], "use_sde = 3: expected true or false"),
+        (["--hyperparams", "verbose:2"], "verbose is set by train.py"),  # SB3: "got multiple values"
+        (["--hyperparams", "n_timesteps:1.5"], "n_timesteps = 1.5: expected an integer >= 1"),  # was int(1.5)
+        (["--hyperparams", "policy_kwargs:dict(net_arch=[0])"], "net_arch = [0]: expected a list of layer sizes"),
+        # Only torch's optimiser can check its own keywords: refused when the model is built.
+        (["--hyperparams", "policy_kwargs:{'optimizer_kwargs': {'betas': 3}}"], "stable-baselines3 refused them"),
+        (["--env-kwargs", "control_period_s:0.01", "control_period_s:0.02"], "control_period_s: given twice"),
+        (["--residual", ""], "--residual '': expected 'none' or a controller's label"),  # ran the file's base
         (["--hyperparams", "learning_rate:abc"], "learning_rate = 'abc': expected a number > 0"),
-        (["--hyperparams", "batch_size:abc"], "batch_size = 'abc': expected an integer > 0"),  # crashed mid-training
+        (["--hyperparams", "batch_size:abc"], "batch_size = 'abc': expected an integer >= 1"),  # crashed mid-training
         (["--hyperparams", "buffer_size:5000"], "--quick with --hyperparams buffer_size"),  # was silently replaced
         (["--seed", "4294967296"], "--seed 4294967296: expected an integer in [0, 4294967295]"),  # numpy's words
         (["--seeds", "2", "--seed", "4294967295"], "the last seed, 4294967296, is past 4294967295"),
@@ -1197,23 +1209,25 @@ def test_a_file_of_text_names_the_first_bad_cells_and_counts_the_rest(tmp_path):
 
 
 def test_algorithm_fractions_have_their_own_lower_ends():
-    from sma_gym_agents.training.config import check_model_kwargs
+    from sma_gym_agents.training.keywords import check_model_kwargs
 
-    check_model_kwargs({"gamma": 0.99, "tau": 0.02, "gae_lambda": 0.0}, "here")  # lambda 0: one-step TD
-    for key, value in (("gamma", 0.0), ("tau", 0.0), ("gae_lambda", 1.5), ("gamma", float("nan")), ("tau", True)):
+    check_model_kwargs({"gamma": 0.99, "tau": 0.02}, "sac", "here")
+    check_model_kwargs({"gamma": 0.99, "gae_lambda": 0.0}, "ppo", "here")  # lambda 0: one-step TD
+    bad = (("gamma", 0.0), ("tau", 0.0), ("gae_lambda", 1.5), ("gamma", float("nan")), ("tau", True))
+    for key, value in bad:
         with pytest.raises(ValueError, match=rf"here: {key} = "):
-            check_model_kwargs({key: value}, "here")
+            check_model_kwargs({key: value}, "ppo" if key == "gae_lambda" else "sac", "here")
 
 
 def test_algorithm_counts_and_rates_are_checked_whatever_their_type():
     """Strings and fractional counts passed the range checks (only numbers were compared) and
     failed deep in training, with a traceback and a half-written run folder."""
-    from sma_gym_agents.training.config import check_model_kwargs
+    from sma_gym_agents.training.keywords import check_model_kwargs
 
     good = {"learning_rate": 3e-4, "batch_size": 256, "buffer_size": 1e6, "n_steps": 64, "learning_starts": 0}
-    check_model_kwargs(good, "here")
-    check_model_kwargs({"learning_rate": lambda progress: 1e-3 * progress, "train_freq": [1, "episode"]}, "here")
-    check_model_kwargs({"train_freq": (4, "step")}, "here")
+    check_model_kwargs(good, "sac", "here")
+    check_model_kwargs({"learning_rate": lambda progress: 1e-3 * progress, "train_freq": [1, "episode"]}, "sac", "here")
+    check_model_kwargs({"train_freq": (4, "step")}, "sac", "here")
     bad = [
         ("learning_rate", "abc"),
         ("learning_rate", float("inf")),
@@ -1229,7 +1243,7 @@ def test_algorithm_counts_and_rates_are_checked_whatever_their_type():
     ]
     for key, value in bad:
         with pytest.raises(ValueError, match=rf"here: {key} = .*expected"):
-            check_model_kwargs({key: value}, "here")
+            check_model_kwargs({key: value}, "ppo" if key == "n_epochs" else "sac", "here")
 
 
 def test_evaluate_refuses_an_agent_that_no_chosen_experiment_scores(tmp_path, capsys, monkeypatch):

@@ -3,6 +3,7 @@ the run configuration (:mod:`sma_gym_agents.training`) and the card (:class:`sma
 
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -125,6 +126,16 @@ def test_ctrl_c_ends_train_py_with_a_line_not_a_traceback_and_keeps_the_checkpoi
     monkeypatch.setattr(run_module, "train_and_compare", before_any_file)
     assert main(["--quick", "--no-progress", "--out", str(tmp_path / "never")]) == 130
     assert capsys.readouterr().err.strip() == "train.py: interrupted"
+    # Into a folder that exists (a user's, or an earlier run's that --overwrite put back):
+    # it promised "the checkpoints written so far" where this run had written none.
+    earlier = tmp_path / "earlier"
+    (earlier / "checkpoints").mkdir(parents=True)
+    for name in ("results.md", "best_model.zip", "checkpoints/model_500_steps.zip"):
+        (earlier / name).write_text("the earlier run's")
+        os.utime(earlier / name, (1e9, 1e9))
+    assert main(["--quick", "--no-progress", "--overwrite", "--out", str(earlier)]) == 130
+    err = capsys.readouterr().err
+    assert "before the first checkpoint; nothing of this run is kept" in err and "keeps the checkpoints" not in err
 
 
 def test_progress_lines_report_steps_rate_and_time_left():
@@ -160,6 +171,104 @@ def test_train_settings_come_from_the_hyperparameter_file_and_options_override()
     assert list(run.as_dict())[:3] == ["env_id", "algo", "timesteps"] and list(run.as_dict())[-1] == "model_kwargs"
     # A lower-case label is normalised to the controller's own spelling.
     assert RunConfig.from_args(parse_args(["--residual", "vsc3 + ff"])).residual == "VSC3 + FF"
+
+
+@pytest.mark.parametrize("algo", ["sac", "ppo"])
+def test_every_keyword_of_the_algorithm_and_its_policy_is_checked_set_by_train_py_or_refused(algo):
+    """An SB3 that adds a keyword fails here, instead of train.py passing it on unchecked;
+    and no table entry names a keyword SB3 does not have."""
+    import inspect
+
+    import stable_baselines3
+
+    from sma_gym_agents.training import keywords as kw
+
+    algo_cls = getattr(stable_baselines3, algo.upper())
+    accepted = set(inspect.signature(algo_cls.__init__).parameters) - {"self"}
+    assert accepted <= {*kw.KEYWORDS[algo], *kw.OWN_KEYWORDS, *kw.NOT_FROM_A_FILE}
+    assert set(kw.KEYWORDS[algo]) <= accepted and set(kw.OWN_KEYWORDS) <= accepted
+    assert not set(kw.KEYWORDS[algo]) & {*kw.OWN_KEYWORDS, *kw.NOT_FROM_A_FILE}
+    policy_cls = algo_cls.policy_aliases["MlpPolicy"]
+    accepted = set(inspect.signature(policy_cls.__init__).parameters) - {"self"}
+    classes = {"activation_fn", "features_extractor_class", "optimizer_class"}  # no literal can name them
+    covered = [*kw.POLICY_KEYWORDS[algo], "net_arch", *kw.POLICY_SET_BY_ALGORITHM, *classes]
+    assert len(covered) == len(set(covered)) and set(covered) == accepted
+
+
+def test_the_keywords_forms_are_read_as_sb3_reads_them():
+    from sma_gym_agents.training.keywords import check_model_kwargs
+
+    good = {
+        "sac": [
+            {"ent_coef": "auto"},
+            {"ent_coef": "auto_0.1"},
+            {"ent_coef": 0.05},
+            {"gradient_steps": -1},
+            {"target_entropy": -2.0},
+            {"sde_sample_freq": -1},
+            {"policy_kwargs": {"net_arch": {"pi": [64], "qf": [64, 64]}, "n_critics": 3}},
+        ],
+        "ppo": [
+            {"ent_coef": 0.0},
+            {"target_kl": None},
+            {"clip_range_vf": 0.2},
+            {"policy_kwargs": {"net_arch": {"pi": [64], "vf": [64]}, "log_std_init": -1.0, "ortho_init": False}},
+        ],
+    }
+    for algo, cases in good.items():
+        for case in cases:
+            check_model_kwargs(case, algo, "here")
+    bad = {
+        "sac": [
+            ({"ent_coef": "auto_-1"}, "ent_coef = 'auto_-1'"),
+            ({"ent_coef": "automatic"}, "ent_coef = 'automatic'"),
+            ({"ent_coef": 0.0}, "ent_coef = 0.0"),
+            ({"gradient_steps": -2}, "gradient_steps = -2"),
+            ({"target_entropy": float("nan")}, "target_entropy = nan"),
+            ({"clip_range": 0.2}, "'clip_range' is no keyword of stable-baselines3's SAC"),
+            ({"seed": 3}, "seed is set by --seed"),
+            ({"replay_buffer_kwargs": {}}, "replay_buffer_kwargs takes an object"),
+            ({"learning_rate": "3e-4"}, "YAML 1.1 reads 3e-4 as text: write it with a dot and a signed exponent"),
+            ({"policy_kwargs": {"net_arch": {"pi": [64], "vf": [64]}}}, "dict(pi=[...], qf=[...])"),
+            ({"policy_kwargs": {"use_sde": True}}, "use_sde is set by the algorithm"),
+            ({"policy_kwargs": {"ortho_init": False}}, "'ortho_init' is no literal keyword of SAC's MlpPolicy"),
+        ],
+        "ppo": [
+            ({"ent_coef": "auto"}, "ent_coef = 'auto'"),  # SAC's, not PPO's
+            ({"batch_size": 1}, "batch_size = 1: expected an integer >= 2"),
+            ({"max_grad_norm": 0}, "max_grad_norm = 0"),
+            ({"normalize_advantage": "yes"}, "normalize_advantage = 'yes': expected true or false"),
+            ({"policy_kwargs": {"log_std_init": "x"}}, "log_std_init = 'x': expected a number"),
+        ],
+    }
+    for algo, cases in bad.items():
+        for case, message in cases:
+            with pytest.raises(ValueError, match="here: ") as err:
+                check_model_kwargs(case, algo, "here")
+            assert message in str(err.value), (algo, case, str(err.value))
+
+
+def test_the_zoos_nested_dict_calls_are_read_and_a_malformed_file_is_named(tmp_path, monkeypatch):
+    from sma_gym_agents.training import config
+    from sma_gym_agents.training.config import literal_kwargs
+
+    nested = "dict(net_arch=dict(pi=[64], qf=[64]), optimizer_kwargs=dict(fused=True))"
+    assert literal_kwargs(nested, "p") == {"net_arch": {"pi": [64], "qf": [64]}, "optimizer_kwargs": {"fused": True}}
+    for text in ("dict(**x)", "dict(activation_fn=nn.ReLU)", "[64, 64]"):
+        with pytest.raises(ValueError, match="train.py reads dict"):
+            literal_kwargs(text, "p")
+    monkeypatch.setattr(config, "HYPERPARAMS", tmp_path)
+    for text, message in [
+        ("SMATracking-v0:\n  gamma: [0.9\n", "sac.yml is not valid YAML"),  # a traceback before
+        ("- SMATracking-v0\n", "expected a mapping of env ids"),
+        ("SMATracking-v0: 3\n", "sac.yml [SMATracking-v0]: expected a mapping of hyperparameter names"),
+        ("SMATracking-v0:\n  n_envs: 4\n", "no n_timesteps"),  # a KeyError traceback before
+        ("SMATracking-v0:\n  n_timesteps: 1000\n  env_kwargs: [1]\n", "env_kwargs = [1]: expected a mapping"),
+    ]:
+        (tmp_path / "sac.yml").write_text(text)
+        with pytest.raises(ValueError, match="sac.yml") as err:
+            RunConfig.from_args(parse_args([]))
+        assert message in str(err.value), str(err.value)
 
 
 def test_hyperparams_option_overrides_the_file_as_rl_zoos_does():

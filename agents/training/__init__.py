@@ -11,6 +11,8 @@
 * :mod:`sma_gym_agents.training.config`: :class:`RunConfig`, the frozen run configuration, from
   ``hyperparams/<algo>.yml`` (RL Zoo's format, which the zoo reads too) overridden by the
   command line, every value checked before anything is created;
+* :mod:`sma_gym_agents.training.keywords`: every keyword of stable-baselines3's SAC and PPO
+  (and of their policy) that a hyperparameter file may set, each with its check;
 * :mod:`sma_gym_agents.training.envs`: what the agent sees and does (residual base controller,
   history features, frame stack) in training and on the validation references;
 * :mod:`sma_gym_agents.training.learn`: the stable-baselines3 loop, checkpoints, best model, progress;
@@ -40,7 +42,8 @@ choices. The run folder (named at the end) gets:
 * ``tb/``: TensorBoard logs (``tensorboard --logdir <folder>/tb``).
 
 A run never mixes its files with another run's: a non-empty ``--out`` is refused unless
-``--overwrite`` is given (then the previous run's outputs are deleted first), a folder
+``--overwrite`` is given (then the previous run's outputs are set aside, put back if the new
+run is refused or stopped before it trained, deleted once it has; a sweep deletes them first), a folder
 another run is writing to is refused (``.sma-gym.lock``), every file is written atomically,
 and each card records the SHA-256 of its zip (a card that does not match is refused).
 

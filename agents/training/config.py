@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import ast
-import math
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -29,6 +28,13 @@ from sma_gym_agents.card import (
 )
 from sma_gym_agents.controllers import ALL_SPECS, spec_by_label
 from sma_gym_agents.history import HISTORIES, HistoryFeatures
+from sma_gym_agents.training.keywords import (
+    KEYWORDS,
+    NOT_FROM_A_FILE,
+    OWN_KEYWORDS,
+    check_model_kwargs,
+    is_count,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 """The repository: ``train.py``, ``hyperparams/`` and the default ``runs/`` live here."""
@@ -74,28 +80,53 @@ def load_hyperparams(env_id: str, algo: str = DEFAULT_ALGO) -> dict[str, Any]:
     import yaml  # only here: the rest of the configuration needs no YAML
 
     path = hyperparams_path(algo)
-    with path.open() as handle:
-        entries = yaml.safe_load(handle)
+    try:
+        with path.open() as handle:
+            entries = yaml.safe_load(handle)
+    except yaml.YAMLError as err:  # its message names the line and column
+        raise ValueError(f"{path} is not valid YAML: {err}") from None
+    if not isinstance(entries, dict):
+        raise ValueError(
+            f"{path}: expected a mapping of env ids to their hyperparameters, got {type(entries).__name__}"
+        )
     if env_id not in entries:
-        raise ValueError(f"--env {env_id!r}: no entry in {path}; expected one of {sorted(entries)}")
-    return dict(entries[env_id])
+        raise ValueError(f"--env {env_id!r}: no entry in {path}; expected one of {sorted(map(str, entries))}")
+    entry = entries[env_id]
+    if not isinstance(entry, dict) or not all(isinstance(k, str) for k in entry):
+        raise ValueError(f"{path} [{env_id}]: expected a mapping of hyperparameter names to values, got {entry!r}")
+    return dict(entry)
 
 
 def literal_kwargs(text: str | dict[str, Any], key: str) -> dict[str, Any]:
-    """A zoo keyword string such as ``"dict(net_arch=[256, 256])"`` as a dict, read without
-    ``eval`` (literal values only; the zoo itself evaluates it as Python)."""
+    """A zoo keyword string such as ``"dict(net_arch=dict(pi=[256], qf=[256]))"`` as a dict,
+    read without ``eval`` (literals and ``dict(...)`` of literals only; the zoo itself
+    evaluates it as Python)."""
     if isinstance(text, dict):
         return dict(text)
     try:
-        node = ast.parse(text, mode="eval").body
-        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
-            return {kw.arg: ast.literal_eval(kw.value) for kw in node.keywords if kw.arg is not None}
-        value = ast.literal_eval(node)
+        value = _literal(ast.parse(text, mode="eval").body)
         if isinstance(value, dict):
             return value
-    except (SyntaxError, ValueError):
+    except (SyntaxError, ValueError, TypeError):
         pass
     raise ValueError(f"{key} = {text!r}: train.py reads dict(name=literal, ...) or a mapping of literals")
+
+
+def _literal(node: ast.expr) -> Any:
+    """``ast.literal_eval`` that also reads ``dict(name=value, ...)``, nested anywhere."""
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
+        if any(kw.arg is None for kw in node.keywords):
+            raise ValueError("dict(**...) is no literal")
+        return {kw.arg: _literal(kw.value) for kw in node.keywords}
+    if isinstance(node, ast.List):
+        return [_literal(e) for e in node.elts]
+    if isinstance(node, ast.Tuple):
+        return tuple(_literal(e) for e in node.elts)
+    if isinstance(node, ast.Dict):
+        if any(k is None for k in node.keys):
+            raise ValueError("{**...} is no literal")
+        return {_literal(k): _literal(v) for k, v in zip(node.keys, node.values, strict=True)}
+    return ast.literal_eval(node)
 
 
 class AgentFeatures(NamedTuple):
@@ -168,6 +199,8 @@ def key_value_option(
         key, sep, text = item.partition(":")
         if not sep or not key.isidentifier():
             raise ValueError(f"{option} {item!r}: expected KEY:VALUE, e.g. {example}")
+        if key in out:  # the last one won, without a word
+            raise ValueError(f"{option} {key}: given twice; expected each key once")
         try:
             out[key] = ast.literal_eval(text)
         except (SyntaxError, ValueError):
@@ -196,11 +229,7 @@ def hyperparams_option(items: list[str] | None, algo: str) -> dict[str, Any]:
     out = key_value_option(items, "--hyperparams", "learning_rate:1e-3 gamma:0.999")
     if not out:
         return out
-    import inspect
-
-    import stable_baselines3  # only when asked: the rest of the configuration needs no torch
-
-    accepted = set(inspect.signature(getattr(stable_baselines3, algo.upper()).__init__).parameters) - {"self"}
+    accepted = {*KEYWORDS[algo], *OWN_KEYWORDS, *NOT_FROM_A_FILE}  # the last two named by check_model_kwargs
     for key in out:
         if key in _OWN_OPTIONS:
             raise ValueError(f"--hyperparams {key}: set it with {_OWN_OPTIONS[key]}")
@@ -345,15 +374,23 @@ class RunConfig:
         algo = args.algo or DEFAULT_ALGO
         overrides = hyperparams_option(args.hyperparams, algo)
         table = {**load_hyperparams(args.env, algo), **overrides}
+        where = f"{hyperparams_path(algo).name} [{args.env}] or --hyperparams"
         refused = sorted(set(table) & set(_ZOO_ONLY_KEYS))
         if refused:
-            raise ValueError(
-                f"{hyperparams_path(algo).name} [{args.env}]: train.py does not implement {refused} (RL Zoo does)"
-            )
+            raise ValueError(f"{where}: train.py does not implement {refused} (RL Zoo does)")
+        for key in ("n_timesteps", "n_envs", "frame_stack"):
+            # int() made 1.5 one step and 2.7 two envs without a word, and "abc" an unnamed error.
+            if key in table and not is_count(table[key], 1):
+                raise ValueError(f"{where}: {key} = {table[key]!r}: expected an integer >= 1")
+        env_kwargs = table.get("env_kwargs", {})
+        if not isinstance(env_kwargs, dict):
+            raise ValueError(f"{where}: env_kwargs = {env_kwargs!r}: expected a mapping of env arguments")
+        if "n_timesteps" not in table and args.timesteps is None:
+            raise ValueError(f"{where}: no n_timesteps; give it there or with --timesteps")
         model_kwargs = {k: v for k, v in table.items() if k not in _RUN_KEYS}
-        check_model_kwargs(model_kwargs, hyperparams_path(algo).name + f" [{args.env}] or --hyperparams")
         if "policy_kwargs" in model_kwargs:
             model_kwargs["policy_kwargs"] = literal_kwargs(model_kwargs["policy_kwargs"], "policy_kwargs")
+        check_model_kwargs(model_kwargs, algo, where)
         features = agent_features(table.get("vec_env_wrapper"))
         if (args.env == BANK_ENV) != (BANK_WRAPPER in str(table.get("vec_env_wrapper"))):
             raise ValueError(
@@ -378,6 +415,9 @@ class RunConfig:
                 )
             timesteps, eval_freq = QUICK_TIMESTEPS, 500
             model_kwargs.update(quick_kwargs)
+        if args.residual is not None and not args.residual.strip():
+            # '' was read as "not given": the file's base controller, without a word.
+            raise ValueError(f"--residual {args.residual!r}: expected 'none' or a controller's label")
         residual = (None if args.residual == "none" else args.residual) if args.residual else features.residual
         run = cls(
             env_id=args.env,
@@ -389,7 +429,7 @@ class RunConfig:
             residual=residual,
             residual_scale=features.residual_scale,
             eval_freq=eval_freq,
-            env_kwargs={**table.get("env_kwargs", {}), **env_kwargs_option(args.env_kwargs)},
+            env_kwargs={**env_kwargs, **env_kwargs_option(args.env_kwargs)},
             seed=args.seed,
             device=args.device,
             threads=args.threads,
@@ -473,55 +513,6 @@ class RunConfig:
     def agent_name(self) -> str:
         """The name of the run's best model in tables (``"SAC agent"``)."""
         return f"{self.algo.upper()} agent"
-
-
-_UNIT_INTERVAL_KEYS = {"gamma": False, "tau": False, "gae_lambda": True}
-"""Algorithm keywords that are fractions up to 1 (a discount above 1 makes returns diverge),
-each with whether 0 is allowed (GAE's lambda = 0 is one-step TD; tau = 0 never updates)."""
-_POSITIVE_KEYS = ("learning_rate", "batch_size", "buffer_size", "n_steps", "n_epochs", "train_freq")
-_NON_INTEGER_KEYS = ("learning_rate",)
-"""Of the keys above, those that are not counts (the rest must be whole numbers)."""
-
-
-def _real(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
-def check_model_kwargs(model_kwargs: dict[str, Any], where: str) -> None:
-    """Refuse values of the algorithm's common keywords that stable-baselines3 accepts but
-    cannot learn with (``gamma`` 2), or refuses only once the run folder exists or deep in
-    training (``batch_size`` "abc"); a ``ValueError`` naming the key, its value and what
-    was expected."""
-    for key, zero_allowed in _UNIT_INTERVAL_KEYS.items():
-        value = model_kwargs.get(key)
-        if value is None:
-            continue
-        if not (_real(value) and (0 <= value if zero_allowed else 0 < value) and value <= 1):
-            raise ValueError(f"{where}: {key} = {value!r}: expected a number in {'[0' if zero_allowed else '(0'}, 1]")
-    for key in _POSITIVE_KEYS:
-        if key not in model_kwargs:
-            continue
-        value = model_kwargs[key]
-        if key == "learning_rate" and callable(value):
-            continue  # a schedule (Python API)
-        if key == "train_freq" and isinstance(value, (tuple, list)):
-            # stable-baselines3's (frequency, unit) form
-            if not (
-                len(value) == 2
-                and _real(value[0])
-                and float(value[0]).is_integer()
-                and value[0] > 0
-                and value[1] in ("step", "episode")
-            ):
-                raise ValueError(f"{where}: train_freq = {value!r}: expected an integer > 0 or [n, 'step' | 'episode']")
-            continue
-        whole = key not in _NON_INTEGER_KEYS
-        if not (_real(value) and value > 0 and (not whole or float(value).is_integer())):
-            raise ValueError(f"{where}: {key} = {value!r}: expected {'an integer' if whole else 'a number'} > 0")
-    if "learning_starts" in model_kwargs:
-        starts = model_kwargs["learning_starts"]
-        if not (_real(starts) and float(starts).is_integer() and starts >= 0):
-            raise ValueError(f"{where}: learning_starts = {starts!r}: expected an integer >= 0")
 
 
 def check_env_kwargs(env_id: str, env_kwargs: dict[str, Any]) -> None:

@@ -105,9 +105,17 @@ def make_model(run: RunConfig, venv: Any, out: Path) -> Any:
     kwargs = dict(run.model_kwargs)
     policy = kwargs.pop("policy", "MlpPolicy")
     algo_cls = {"sac": SAC, "ppo": PPO}[run.algo]
-    return algo_cls(
-        policy, venv, seed=run.seed, device=run.device, tensorboard_log=str(out / "tb"), verbose=0, **kwargs
-    )
+    try:
+        return algo_cls(
+            policy, venv, seed=run.seed, device=run.device, tensorboard_log=str(out / "tb"), verbose=0, **kwargs
+        )
+    except (TypeError, ValueError, AssertionError) as err:
+        # What only the algorithm, the policy or torch's optimiser can check (optimizer_kwargs,
+        # a batch larger than PPO's rollout): refused as a bad option, before any training.
+        raise ValueError(
+            f"hyperparameters of {run.algo.upper()} ({', '.join(sorted(run.model_kwargs))}): stable-baselines3 "
+            f"refused them: {err}"
+        ) from None
 
 
 def train(run: RunConfig, out: Path, progress: bool = True) -> TrainingInfo:
