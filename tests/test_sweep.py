@@ -243,6 +243,31 @@ def test_a_resumed_sweep_keeps_the_seeds_that_finished_and_reruns_the_others(tmp
     assert data["kept"] == [0, 1, 2] and data["goals"]["RMS step below every baseline"]["seeds"] == 5
 
 
+def test_resume_refuses_seeds_it_would_leave_out_and_retrains_a_seed_whose_goals_are_unreadable(
+    tmp_path, monkeypatch, capsys
+):
+    """--resume with another --seed or fewer --seeds trained into the same folder, and the
+    seeds left out stayed beside a table that did not count them; a kept seed whose
+    goals.json was damaged crashed the sweep with a JSON traceback after every other seed
+    had trained."""
+    monkeypatch.setattr(sweep_module, "seed_command", lambda argv: [sys.executable, "-c", FAKE_RESUMED_RUN, *argv])
+    options = ["--quick", "--residual", "none"]
+    out = tmp_path / "sweep"
+    for seed in (0, 1):
+        _finished_before(out / f"seed-{seed}", options, seed, agent_mm=7.0)
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    for extra in (["--seeds", "1"], ["--seeds", "2", "--seed", "5"]):
+        assert main([*extra, *options, "--resume", "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert "holds seeds [" in err and "leave out" in err and "Traceback" not in err, err
+        assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    (out / "seed-1" / "goals.json").write_text('{"goals": ')  # cut short by a full disk, say
+    assert main(["--seeds", "2", *options, "--resume", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "seed 0 kept" in printed and "goals.json is not readable" in printed and "seed 1 kept" not in printed
+    assert json.loads((out / "seeds.json").read_text())["kept"] == [0]
+
+
 def test_resume_options_are_checked(capsys, tmp_path):
     assert main(["--resume", "--out", str(tmp_path)]) == 2 and "--resume: only with --seeds" in capsys.readouterr().err
     assert main(["--seeds", "2", "--resume"]) == 2 and "--out" in capsys.readouterr().err
@@ -263,7 +288,7 @@ def test_a_run_json_from_before_the_residual_filter_reads_as_no_filter(tmp_path)
     folder.mkdir()
     old = {k: v for k, v in run.as_dict().items() if k != "residual_filter_s"}
     (folder / "run.json").write_text(json.dumps({**old, "seed": 0}))
-    (folder / "goals.json").write_text("{}")
+    (folder / "goals.json").write_text('{"goals": {}}')
     assert finished_seeds(run, [0], tmp_path) == [0]
     with pytest.raises(ValueError, match=r"residual_filter_s: 0.0 there, 0.1 now"):
         finished_seeds(replace(run, residual_filter_s=0.1), [0], tmp_path)

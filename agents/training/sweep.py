@@ -329,6 +329,14 @@ def finished_seeds(run: RunConfig, seeds: list[int], out: Path) -> list[int]:
     configuration: its results would be mixed into a table that is not theirs."""
     kept = []
     expected = _as_recorded({**run.as_dict(), "seed": None})
+    present = sorted(int(p.name[5:]) for p in out.glob("seed-*") if p.is_dir() and p.name[5:].isdigit())
+    outside = [s for s in present if s not in seeds]
+    if outside:
+        # They would stay in the folder beside a seeds.md that does not count them.
+        raise ValueError(
+            f"--resume: {out} holds seeds {outside}, which seeds {seeds[0]}-{seeds[-1]} (--seed {seeds[0]} --seeds "
+            f"{len(seeds)}) leave out; resume with that sweep's --seed and --seeds (or more seeds), or choose a new --out"
+        )
     for seed in seeds:
         folder = out / f"seed-{seed}"
         record = folder / "run.json"
@@ -347,6 +355,16 @@ def finished_seeds(run: RunConfig, seeds: list[int], out: Path) -> list[int]:
                 "resume with the options of that sweep, or choose a new --out"
             )
         if (folder / "goals.json").is_file():
+            try:
+                goals = read_goals(folder)
+                if not isinstance(goals, dict):
+                    raise TypeError(f"'goals' is a {type(goals).__name__}, not a table")
+            except (OSError, ValueError, KeyError, TypeError) as err:
+                # A run writes it last and atomically: unreadable, it is no finished run.
+                print(
+                    f"train.py: seed {seed}: {folder / 'goals.json'} is not readable ({err}); trained again", flush=True
+                )
+                continue
             kept.append(seed)
     return kept
 
