@@ -30,6 +30,7 @@ Trained models (written by ``train.py``) are opened by :func:`sma_gym_agents.tra
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -61,10 +62,28 @@ def env_attr(env: Any, name: str, per_env: bool = False) -> Any:
         ) from None
 
 
-def require_finite_observation(obs: np.ndarray) -> None:
-    """ValueError naming the first non-finite values of a policy's observation."""
-    if not np.isfinite(obs).all():
-        raise ValueError(f"observation holds NaN or inf ({obs.ravel()[~np.isfinite(obs.ravel())][:3]}...)")
+def require_finite_observation(
+    obs: np.ndarray, feature_names: Sequence[str] | Callable[[], Sequence[str]] | None = None
+) -> None:
+    """ValueError naming the first non-finite value of a policy's observation: its position
+    and, given the env's ``feature_names`` (or a callable that returns them, called only on
+    that error), the feature, as the env's observation lays them out (and stacks them)."""
+    bad = ~np.isfinite(obs)
+    if not bad.any():
+        return
+    where = np.unravel_index(int(np.flatnonzero(bad)[0]), obs.shape)
+    value = "NaN" if np.isnan(obs[where]) else f"{obs[where]:+}"
+    names = feature_names() if callable(feature_names) else feature_names
+    feature = ""
+    if names and obs.ndim and obs.shape[-1] % len(names) == 0:
+        feature = f" feature {names[where[-1] % len(names)]!r}"
+        if obs.shape[-1] > len(names):  # several actuators or stacked frames
+            feature += f" of block {where[-1] // len(names)}"
+    at = f" at{feature} (index {', '.join(map(str, where))};" if obs.ndim else " ("
+    raise ValueError(
+        f"observation holds {value}{at} {int(bad.sum())} non-finite value(s) in all): "
+        "expected finite numbers (a sensor or a preprocessing step gave no number)"
+    )
 
 
 class ControllerPolicy:
@@ -117,7 +136,8 @@ class ControllerPolicy:
                 f"observation of shape {obs.shape}: expected ({self.k},), (n * {self.k},) or a batch of them "
                 f"(batch, n * {self.k}) from {self.spec.label}'s env"
             )
-        require_finite_observation(obs)  # a controller fed NaN returns NaN duties, which no env accepts
+        # A controller fed NaN returns NaN duties, which no env accepts.
+        require_finite_observation(obs, self.feature_names)
         batch = obs.reshape(1 if single else obs.shape[0], -1, self.k)
         n_batch, units, _ = batch.shape
         n = n_batch * units

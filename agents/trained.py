@@ -64,7 +64,7 @@ class AgentPolicy:
                 "run it on a bank's observations as sma_gym_agents.bank.BankAgent.from_policy(agent, env)"
             )
         obs = np.asarray(observation, dtype=float)
-        require_finite_observation(obs)  # a network maps NaN to a NaN action without a word
+        require_finite_observation(obs, self._feature_names)  # a network maps NaN to a NaN action without a word
         single = obs.ndim == 1
         batch = obs[None, :] if single else obs
         if episode_start is not None:
@@ -87,6 +87,15 @@ class AgentPolicy:
         if self._residual is not None:
             action = self._residual.action(action)
         return (action[0] if single else action), state
+
+    def _feature_names(self) -> tuple[str, ...]:
+        """The raw observation's features of the env the model trained on (built only to name
+        a bad observation's feature)."""
+        env = gym.make("sma_gym:" + self.env_id, **self.env_kwargs)
+        try:
+            return tuple(env.unwrapped.feature_names)
+        finally:
+            env.close()
 
     def _make_residual(self) -> ResidualStep:
         """The base controller, built on the env the model trained on (its constants)."""

@@ -1908,13 +1908,21 @@ def test_a_trained_agent_refuses_a_nan_observation_and_an_effect_file_names_its_
     import gymnasium as gym
 
     from sma_gym.effects import EffectSet
+    from sma_gym_agents import ControllerPolicy
     from sma_gym_agents.trained import load_policy, save_policy
 
     agent = load_policy(save_policy(_tiny_model(), tmp_path / "agent.zip", CARD))
     obs, _ = gym.make("sma_gym:SMATracking-v0").reset(seed=0)
     obs[2] = np.nan
-    with pytest.raises(ValueError, match="observation holds NaN"):
+    with pytest.raises(ValueError, match=r"observation holds NaN at feature 'resistance_valid' \(index 2;"):
         agent.predict(obs)
+    batch = np.stack([obs, obs])
+    batch[0, 2], batch[1, 0] = 0.0, -np.inf  # a batch: the first bad value's row and column
+    with pytest.raises(ValueError, match=r"holds -inf at feature 'position' \(index 1, 0; 2 non-finite"):
+        agent.predict(batch)
+    controller = ControllerPolicy("PID", gym.make("sma_gym:SMATracking-v0"))
+    with pytest.raises(ValueError, match=r"holds -inf at feature 'position'"):
+        controller.predict(batch)
     with pytest.raises(ValueError, match=r"effects\['sensor_lag'\]\['parameters'\] = \[1\]: expected a mapping"):
         EffectSet.of({"sensor_lag": {"parameters": [1]}})
 
