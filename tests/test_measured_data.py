@@ -226,7 +226,12 @@ def test_a_comment_line_is_named_as_one_not_as_missing_columns(tmp_path):
 @pytest.mark.parametrize(
     "repeats, message",
     # Past about 9000 rows the swallowed field is longer than the csv module's 128 KiB limit.
-    [(60, "a double quote opened on this line runs on to line 61"), (12000, "not readable as CSV")],
+    [
+        (60, "a double quote opened on this line runs on to line 61"),
+        (12000, "not readable as CSV"),
+        # On the last line it swallowed the line's end: read as a number (or a field count).
+        (5, "runs on to the end of the file"),
+    ],
 )
 def test_a_stray_quote_is_named_with_its_row_not_swallowing_the_file_or_crashing_the_reader(tmp_path, repeats, message):
     """A quote left open made the rest of the file one field: a small file then lost its rows

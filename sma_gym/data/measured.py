@@ -223,6 +223,15 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
                         f"{reader.line_num}; expected one row per line (a stray '\"'?)"
                     ]
                 )
+            if any("\n" in field or "\r" in field for field in row):
+                # The same on the last line: the quote runs on to the end of the file, taking
+                # the line's end (and any fields after it) into one field.
+                raise MeasuredDataError(
+                    [
+                        f"{where}:{line}: a double quote opened on this line runs on to the end of the file; "
+                        "expected one row per line (a stray '\"'?)"
+                    ]
+                )
             rows.append(row)
     except csv.Error as err:
         raise MeasuredDataError(
