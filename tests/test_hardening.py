@@ -1065,17 +1065,20 @@ def test_locked_folder_removes_only_the_empty_folders_it_created_on_failure(tmp_
         (["--hyperparams", "gamma:2"], "gamma = 2: expected a number in (0, 1]"),
         (["--hyperparams", "learning_rate:-1"], "learning_rate = -1"),
         (["--timesteps", "-5"], "--quick with --timesteps -5"),
-        (["--hyperparams", "ent_coef:bad"], "ent_coef = 'bad': expected a number > 0, 'auto'"),
+        (["--hyperparams", "ent_coef:bad"], "ent_coef = 'bad': expected a number >= 0, 'auto'"),
         # These crashed in training with a traceback, or trained an agent that never learnt:
         (["--hyperparams", "gradient_steps:abc"], "gradient_steps = 'abc': expected an integer >= 1, or -1"),
         (["--hyperparams", "gradient_steps:0"], "0 would never train"),
-        (["--hyperparams", "ent_coef:-1"], "ent_coef = -1: expected a number > 0"),
+        (["--hyperparams", "ent_coef:-1"], "--hyperparams ent_coef: ent_coef = -1: expected a number >= 0"),
         (["--hyperparams", "use_sde:3"], "use_sde = 3: expected true or false"),
         (["--hyperparams", "verbose:2"], "verbose is set by train.py"),  # SB3: "got multiple values"
         (["--hyperparams", "n_timesteps:1.5"], "n_timesteps = 1.5: expected an integer >= 1"),  # was int(1.5)
         (["--hyperparams", "policy_kwargs:dict(net_arch=[0])"], "net_arch = [0]: expected a list of layer sizes"),
         # Only torch's optimiser can check its own keywords: refused when the model is built.
-        (["--hyperparams", "policy_kwargs:{'optimizer_kwargs': {'betas': 3}}"], "stable-baselines3 refused them"),
+        (
+            ["--hyperparams", "policy_kwargs:{'optimizer_kwargs': {'betas': 3}}"],
+            "stable-baselines3 refused one of them",
+        ),
         (["--env-kwargs", "control_period_s:0.01", "control_period_s:0.02"], "control_period_s: given twice"),
         (["--residual", ""], "--residual '': expected 'none' or a controller's label"),  # ran the file's base
         (["--hyperparams", "learning_rate:abc"], "learning_rate = 'abc': expected a number > 0"),
@@ -1208,15 +1211,19 @@ def test_a_file_of_text_names_the_first_bad_cells_and_counts_the_rest(tmp_path):
     assert len(lines) < 30 and "4980 more cells that are not numbers" in lines[-1]
 
 
+def _here(key: str) -> str:
+    return "here"
+
+
 def test_algorithm_fractions_have_their_own_lower_ends():
     from sma_gym_agents.training.keywords import check_model_kwargs
 
-    check_model_kwargs({"gamma": 0.99, "tau": 0.02}, "sac", "here")
-    check_model_kwargs({"gamma": 0.99, "gae_lambda": 0.0}, "ppo", "here")  # lambda 0: one-step TD
+    check_model_kwargs({"gamma": 0.99, "tau": 0.02}, "sac", _here)
+    check_model_kwargs({"gamma": 0.99, "gae_lambda": 0.0}, "ppo", _here)  # lambda 0: one-step TD
     bad = (("gamma", 0.0), ("tau", 0.0), ("gae_lambda", 1.5), ("gamma", float("nan")), ("tau", True))
     for key, value in bad:
         with pytest.raises(ValueError, match=rf"here: {key} = "):
-            check_model_kwargs({key: value}, "ppo" if key == "gae_lambda" else "sac", "here")
+            check_model_kwargs({key: value}, "ppo" if key == "gae_lambda" else "sac", _here)
 
 
 def test_algorithm_counts_and_rates_are_checked_whatever_their_type():
@@ -1225,9 +1232,9 @@ def test_algorithm_counts_and_rates_are_checked_whatever_their_type():
     from sma_gym_agents.training.keywords import check_model_kwargs
 
     good = {"learning_rate": 3e-4, "batch_size": 256, "buffer_size": 1e6, "n_steps": 64, "learning_starts": 0}
-    check_model_kwargs(good, "sac", "here")
-    check_model_kwargs({"learning_rate": lambda progress: 1e-3 * progress, "train_freq": [1, "episode"]}, "sac", "here")
-    check_model_kwargs({"train_freq": (4, "step")}, "sac", "here")
+    check_model_kwargs(good, "sac", _here)
+    check_model_kwargs({"learning_rate": lambda progress: 1e-3 * progress, "train_freq": [1, "episode"]}, "sac", _here)
+    check_model_kwargs({"train_freq": (4, "step")}, "sac", _here)
     bad = [
         ("learning_rate", "abc"),
         ("learning_rate", float("inf")),
@@ -1243,7 +1250,7 @@ def test_algorithm_counts_and_rates_are_checked_whatever_their_type():
     ]
     for key, value in bad:
         with pytest.raises(ValueError, match=rf"here: {key} = .*expected"):
-            check_model_kwargs({key: value}, "ppo" if key == "n_epochs" else "sac", "here")
+            check_model_kwargs({key: value}, "ppo" if key == "n_epochs" else "sac", _here)
 
 
 def test_evaluate_refuses_an_agent_that_no_chosen_experiment_scores(tmp_path, capsys, monkeypatch):

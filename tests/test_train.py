@@ -185,9 +185,10 @@ def test_every_keyword_of_the_algorithm_and_its_policy_is_checked_set_by_train_p
 
     algo_cls = getattr(stable_baselines3, algo.upper())
     accepted = set(inspect.signature(algo_cls.__init__).parameters) - {"self"}
-    assert accepted <= {*kw.KEYWORDS[algo], *kw.OWN_KEYWORDS, *kw.NOT_FROM_A_FILE}
-    assert set(kw.KEYWORDS[algo]) <= accepted and set(kw.OWN_KEYWORDS) <= accepted
-    assert not set(kw.KEYWORDS[algo]) & {*kw.OWN_KEYWORDS, *kw.NOT_FROM_A_FILE}
+    others = {*kw.OWN_KEYWORDS, *kw.NOT_FROM_A_FILE[algo], *kw.ZOO_ONLY_KEYS}
+    assert accepted <= {*kw.KEYWORDS[algo], *others}
+    assert {*kw.KEYWORDS[algo], *kw.OWN_KEYWORDS, *kw.NOT_FROM_A_FILE[algo]} <= accepted
+    assert not set(kw.KEYWORDS[algo]) & others
     policy_cls = algo_cls.policy_aliases["MlpPolicy"]
     accepted = set(inspect.signature(policy_cls.__init__).parameters) - {"self"}
     classes = {"activation_fn", "features_extractor_class", "optimizer_class"}  # no literal can name them
@@ -196,38 +197,56 @@ def test_every_keyword_of_the_algorithm_and_its_policy_is_checked_set_by_train_p
 
 
 def test_the_keywords_forms_are_read_as_sb3_reads_them():
+    """Reviewed against SB3 2.9.2's source: what it trains with passes, and reaches it in the
+    type it needs (a count written 2.0 crashed at the first update, a list train_freq was
+    refused when the model was built); what it refuses, or cannot learn with, is named."""
     from sma_gym_agents.training.keywords import check_model_kwargs
+
+    def here(key: str) -> str:
+        return "here"
 
     good = {
         "sac": [
-            {"ent_coef": "auto"},
-            {"ent_coef": "auto_0.1"},
-            {"ent_coef": 0.05},
-            {"gradient_steps": -1},
-            {"target_entropy": -2.0},
-            {"sde_sample_freq": -1},
-            {"policy_kwargs": {"net_arch": {"pi": [64], "qf": [64, 64]}, "n_critics": 3}},
+            ({"ent_coef": "auto"}, None),
+            ({"ent_coef": "auto_0.1"}, None),
+            ({"ent_coef": 0.0}, None),  # no entropy bonus: an ablation
+            ({"gradient_steps": -1}, None),
+            ({"gradient_steps": 2.0}, {"gradient_steps": 2}),
+            ({"buffer_size": 1e6, "batch_size": 64.0}, {"buffer_size": 1_000_000, "batch_size": 64}),
+            ({"train_freq": [1, "episode"]}, {"train_freq": (1, "episode")}),
+            ({"train_freq": 4.0}, {"train_freq": 4}),
+            ({"target_entropy": -2.0}, None),
+            ({"sde_sample_freq": 0}, None),
+            ({"policy_kwargs": {"net_arch": {"pi": [64.0], "qf": [64, 64]}, "n_critics": 3}}, None),
+            ({"policy_kwargs": {"net_arch": None, "clip_mean": 0.0}}, None),  # SB3's defaults; 0: no clipping
         ],
         "ppo": [
-            {"ent_coef": 0.0},
-            {"target_kl": None},
-            {"clip_range_vf": 0.2},
-            {"policy_kwargs": {"net_arch": {"pi": [64], "vf": [64]}, "log_std_init": -1.0, "ortho_init": False}},
+            ({"ent_coef": 0.0, "target_kl": None, "clip_range_vf": 0.2, "n_epochs": 10.0}, None),
+            ({"batch_size": 1, "normalize_advantage": False}, None),
+            ({"policy_kwargs": {"net_arch": {"pi": [64], "vf": [64]}, "log_std_init": -1, "ortho_init": False}}, None),
         ],
     }
     for algo, cases in good.items():
-        for case in cases:
-            check_model_kwargs(case, algo, "here")
+        for case, expected in cases:
+            out = check_model_kwargs(case, algo, here)
+            assert out == (case if expected is None else expected), (algo, case, out)
+            for key, value in (expected or {}).items():
+                assert type(out[key]) is type(value), (key, out[key])
+    out = check_model_kwargs({"policy_kwargs": {"net_arch": {"pi": [64.0], "qf": [8]}}}, "sac", here)
+    assert type(out["policy_kwargs"]["net_arch"]["pi"][0]) is int
     bad = {
         "sac": [
             ({"ent_coef": "auto_-1"}, "ent_coef = 'auto_-1'"),
+            ({"ent_coef": "auto_"}, "ent_coef = 'auto_'"),  # SB3: "could not convert string to float"
             ({"ent_coef": "automatic"}, "ent_coef = 'automatic'"),
-            ({"ent_coef": 0.0}, "ent_coef = 0.0"),
+            ({"ent_coef": -0.1}, "ent_coef = -0.1"),
             ({"gradient_steps": -2}, "gradient_steps = -2"),
             ({"target_entropy": float("nan")}, "target_entropy = nan"),
-            ({"clip_range": 0.2}, "'clip_range' is no keyword of stable-baselines3's SAC"),
+            ({"optimize_memory_usage": True}, "optimize_memory_usage = True: expected false"),
+            ({"clip_range": 0.2}, "'clip_range' is neither a run key"),
+            ({"rollout_buffer_class": None}, "'rollout_buffer_class' is neither a run key"),  # PPO's
             ({"seed": 3}, "seed is set by --seed"),
-            ({"replay_buffer_kwargs": {}}, "replay_buffer_kwargs takes an object"),
+            ({"action_noise": None}, "action_noise takes an object"),
             ({"learning_rate": "3e-4"}, "YAML 1.1 reads 3e-4 as text: write it with a dot and a signed exponent"),
             ({"policy_kwargs": {"net_arch": {"pi": [64], "vf": [64]}}}, "dict(pi=[...], qf=[...])"),
             ({"policy_kwargs": {"use_sde": True}}, "use_sde is set by the algorithm"),
@@ -235,7 +254,7 @@ def test_the_keywords_forms_are_read_as_sb3_reads_them():
         ],
         "ppo": [
             ({"ent_coef": "auto"}, "ent_coef = 'auto'"),  # SAC's, not PPO's
-            ({"batch_size": 1}, "batch_size = 1: expected an integer >= 2"),
+            ({"batch_size": 1}, "batch_size = 1 with normalize_advantage: expected batch_size >= 2"),
             ({"max_grad_norm": 0}, "max_grad_norm = 0"),
             ({"normalize_advantage": "yes"}, "normalize_advantage = 'yes': expected true or false"),
             ({"policy_kwargs": {"log_std_init": "x"}}, "log_std_init = 'x': expected a number"),
@@ -244,8 +263,21 @@ def test_the_keywords_forms_are_read_as_sb3_reads_them():
     for algo, cases in bad.items():
         for case, message in cases:
             with pytest.raises(ValueError, match="here: ") as err:
-                check_model_kwargs(case, algo, "here")
+                check_model_kwargs(case, algo, here)
             assert message in str(err.value), (algo, case, str(err.value))
+
+
+def test_a_run_names_the_source_of_a_bad_value_and_refuses_episodic_training_over_several_envs():
+    with pytest.raises(ValueError, match=r"^--hyperparams gamma: gamma = 2"):
+        RunConfig.from_args(parse_args(["--hyperparams", "gamma:2"]))
+    with pytest.raises(ValueError, match=r"^--hyperparams n_timesteps: n_timesteps = '1e6'.*YAML 1.1"):
+        RunConfig.from_args(parse_args(["--hyperparams", "n_timesteps:'1e6'"]))
+    with pytest.raises(ValueError, match=r"train_freq = \[1, 'episode'\] with 4 envs: .*expected --n-envs 1"):
+        RunConfig.from_args(parse_args(["--hyperparams", "train_freq:[1, 'episode']"]))
+    run = RunConfig.from_args(parse_args(["--n-envs", "1", "--hyperparams", "train_freq:[1, 'episode']"]))
+    assert run.model_kwargs["train_freq"] == (1, "episode")
+    with pytest.raises(ValueError, match="repeated keyword"):
+        RunConfig.from_args(parse_args(["--hyperparams", "policy_kwargs:dict(net_arch=[64], net_arch=[32])"]))
 
 
 def test_the_zoos_nested_dict_calls_are_read_and_a_malformed_file_is_named(tmp_path, monkeypatch):
@@ -296,7 +328,7 @@ def test_hyperparams_option_overrides_the_file_as_rl_zoos_does():
         RunConfig.from_args(parse_args(["--hyperparams", "gama:0.9"]))
     with pytest.raises(ValueError, match="--hyperparams clip_range"):  # PPO's, not SAC's
         RunConfig.from_args(parse_args(["--hyperparams", "clip_range:0.1"]))
-    with pytest.raises(ValueError, match="--hyperparams seed: set it with --seed"):
+    with pytest.raises(ValueError, match="--hyperparams seed: seed is set by --seed"):
         RunConfig.from_args(parse_args(["--hyperparams", "seed:3"]))
     with pytest.raises(ValueError, match="--env-kwargs"):
         RunConfig.from_args(parse_args(["--hyperparams", "env_kwargs:{}"]))

@@ -32,8 +32,11 @@ from sma_gym_agents.training.keywords import (
     KEYWORDS,
     NOT_FROM_A_FILE,
     OWN_KEYWORDS,
+    RUN_KEYS,
+    ZOO_ONLY_KEYS,
     check_model_kwargs,
     is_count,
+    text_number_hint,
 )
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -52,19 +55,6 @@ BANK_ENV = BANK_ENV_ID
 """The env whose agent is one policy shared by every actuator of the bank (:data:`BANK_WRAPPER`)."""
 NOT_FOR_TRAIN_PY: dict[str, str] = {}
 """Env ids the hyperparameter files hold for RL Zoo only, with the reason (none since the bank trains)."""
-_RUN_KEYS = ("n_timesteps", "n_envs", "frame_stack", "vec_env_wrapper", "env_kwargs")
-"""Zoo keys that configure the run; the rest go to the algorithm."""
-_ZOO_ONLY_KEYS = (
-    "normalize",
-    "env_wrapper",
-    "callback",
-    "monitor_kwargs",
-    "replay_buffer_class",
-    "replay_buffer_kwargs",
-    "noise_type",
-    "noise_std",
-)
-"""Zoo keys train.py does not implement: refused rather than silently ignored."""
 
 DESCRIPTION = "Train a stable-baselines3 agent on an sma-gym env and compare it with the report's controllers."
 
@@ -103,20 +93,31 @@ def literal_kwargs(text: str | dict[str, Any], key: str) -> dict[str, Any]:
     evaluates it as Python)."""
     if isinstance(text, dict):
         return dict(text)
+    reason = ""
     try:
         value = _literal(ast.parse(text, mode="eval").body)
         if isinstance(value, dict):
             return value
+    except _RepeatedKeyword as err:
+        reason = f" ({err})"
     except (SyntaxError, ValueError, TypeError):
         pass
-    raise ValueError(f"{key} = {text!r}: train.py reads dict(name=literal, ...) or a mapping of literals")
+    raise ValueError(f"{key} = {text!r}: train.py reads dict(name=literal, ...) or a mapping of literals{reason}")
+
+
+class _RepeatedKeyword(ValueError):
+    """``dict(a=1, a=2)``: Python refuses it (the zoo evaluates the text), ast does not."""
 
 
 def _literal(node: ast.expr) -> Any:
     """``ast.literal_eval`` that also reads ``dict(name=value, ...)``, nested anywhere."""
     if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
-        if any(kw.arg is None for kw in node.keywords):
+        names = [kw.arg for kw in node.keywords]
+        if None in names:
             raise ValueError("dict(**...) is no literal")
+        repeated = sorted({n for n in names if names.count(n) > 1})
+        if repeated:
+            raise _RepeatedKeyword(f"repeated keyword {', '.join(map(str, repeated))}")
         return {kw.arg: _literal(kw.value) for kw in node.keywords}
     if isinstance(node, ast.List):
         return [_literal(e) for e in node.elts]
@@ -213,14 +214,9 @@ def env_kwargs_option(items: list[str] | None) -> dict[str, Any]:
     return key_value_option(items)
 
 
-_OWN_OPTIONS = {
-    "vec_env_wrapper": "--history and --residual",
-    "env_kwargs": "--env-kwargs",
-    "seed": "--seed",
-    "device": "--device",
-    "env": "--env",
-}
-"""Entries of the file that ``--hyperparams`` leaves to another option."""
+_OWN_OPTIONS = {"vec_env_wrapper": "--history and --residual", "env_kwargs": "--env-kwargs"}
+"""Run keys of the file that ``--hyperparams`` leaves to another option (the algorithm's
+keywords that train.py sets are :data:`~sma_gym_agents.training.keywords.OWN_KEYWORDS`)."""
 
 
 def hyperparams_option(items: list[str] | None, algo: str) -> dict[str, Any]:
@@ -229,13 +225,13 @@ def hyperparams_option(items: list[str] | None, algo: str) -> dict[str, Any]:
     out = key_value_option(items, "--hyperparams", "learning_rate:1e-3 gamma:0.999")
     if not out:
         return out
-    accepted = {*KEYWORDS[algo], *OWN_KEYWORDS, *NOT_FROM_A_FILE}  # the last two named by check_model_kwargs
+    accepted = {*KEYWORDS[algo], *OWN_KEYWORDS, *NOT_FROM_A_FILE[algo]}  # the last two named by check_model_kwargs
     for key in out:
         if key in _OWN_OPTIONS:
             raise ValueError(f"--hyperparams {key}: set it with {_OWN_OPTIONS[key]}")
-        if key not in accepted and key not in _RUN_KEYS:
+        if key not in accepted and key not in RUN_KEYS:
             raise ValueError(
-                f"--hyperparams {key}: expected one of {sorted(set(_RUN_KEYS) - set(_OWN_OPTIONS))} or a keyword "
+                f"--hyperparams {key}: expected one of {sorted(set(RUN_KEYS) - set(_OWN_OPTIONS))} or a keyword "
                 f"of stable-baselines3's {algo.upper()}"
             )
     return out
@@ -374,23 +370,31 @@ class RunConfig:
         algo = args.algo or DEFAULT_ALGO
         overrides = hyperparams_option(args.hyperparams, algo)
         table = {**load_hyperparams(args.env, algo), **overrides}
-        where = f"{hyperparams_path(algo).name} [{args.env}] or --hyperparams"
-        refused = sorted(set(table) & set(_ZOO_ONLY_KEYS))
+        entry = f"{hyperparams_path(algo).name} [{args.env}]"
+
+        def source(key: str) -> str:  # where a key's value came from, for its error
+            return f"--hyperparams {key}" if key in overrides else entry
+
+        refused = sorted(set(table) & set(ZOO_ONLY_KEYS))
         if refused:
-            raise ValueError(f"{where}: train.py does not implement {refused} (RL Zoo does)")
+            raise ValueError(f"{source(refused[0])}: train.py does not implement {refused} (RL Zoo does)")
         for key in ("n_timesteps", "n_envs", "frame_stack"):
             # int() made 1.5 one step and 2.7 two envs without a word, and "abc" an unnamed error.
             if key in table and not is_count(table[key], 1):
-                raise ValueError(f"{where}: {key} = {table[key]!r}: expected an integer >= 1")
+                raise ValueError(
+                    f"{source(key)}: {key} = {table[key]!r}: expected an integer >= 1{text_number_hint(table[key])}"
+                )
         env_kwargs = table.get("env_kwargs", {})
         if not isinstance(env_kwargs, dict):
-            raise ValueError(f"{where}: env_kwargs = {env_kwargs!r}: expected a mapping of env arguments")
+            raise ValueError(f"{entry}: env_kwargs = {env_kwargs!r}: expected a mapping of env arguments")
         if "n_timesteps" not in table and args.timesteps is None:
-            raise ValueError(f"{where}: no n_timesteps; give it there or with --timesteps")
-        model_kwargs = {k: v for k, v in table.items() if k not in _RUN_KEYS}
+            raise ValueError(f"{entry}: no n_timesteps; give it there or with --timesteps")
+        model_kwargs = {k: v for k, v in table.items() if k not in RUN_KEYS}
         if "policy_kwargs" in model_kwargs:
-            model_kwargs["policy_kwargs"] = literal_kwargs(model_kwargs["policy_kwargs"], "policy_kwargs")
-        check_model_kwargs(model_kwargs, algo, where)
+            model_kwargs["policy_kwargs"] = literal_kwargs(
+                model_kwargs["policy_kwargs"], f"{source('policy_kwargs')}: policy_kwargs"
+            )
+        model_kwargs = check_model_kwargs(model_kwargs, algo, source)
         features = agent_features(table.get("vec_env_wrapper"))
         if (args.env == BANK_ENV) != (BANK_WRAPPER in str(table.get("vec_env_wrapper"))):
             raise ValueError(
@@ -453,6 +457,13 @@ class RunConfig:
         for name in ("timesteps", "n_envs", "frame_stack", "threads", "eval_freq"):
             if getattr(self, name) < 1:
                 raise ValueError(f"--{name.replace('_', '-')} = {getattr(self, name)}: expected an integer >= 1")
+        freq = self.model_kwargs.get("train_freq")
+        if isinstance(freq, tuple) and freq[1] == "episode" and self.n_envs > 1:
+            # SB3 refuses it at its first rollout, after the run folder exists.
+            raise ValueError(
+                f"train_freq = {list(freq)} with {self.n_envs} envs: SB3 trains per episode with one env only; "
+                "expected --n-envs 1, or train_freq in steps"
+            )
         if self.frame_stack > 1 and (self.history != "none" or self.residual is not None):
             # The evaluation harness stacks raw env observations; stacking on top of history
             # features or a residual base would be seen differently in training and evaluation.

@@ -9,7 +9,9 @@ only late: ``gradient_steps: abc`` crashed at the first update with a ``TypeErro
 traceback, ``ent_coef: .nan`` after ``learning_starts`` steps, while ``gradient_steps: 0``
 (no update ever) and ``ent_coef: -1`` trained to the end into an agent that had not
 learnt. :func:`check_model_kwargs` refuses all of these before a run folder exists, naming
-the key, its value and what was expected. (``tests/test_train.py`` checks that the tables
+where the value came from, the key, the value and what was expected, and passes the rest on
+in the types SB3 needs (``gradient_steps: 2.0`` as ``2``; a ``train_freq`` list as a tuple).
+Reviewed against SB3 2.9.2's source. (``tests/test_train.py`` checks that the tables
 cover SB3's signatures, so a keyword a new SB3 adds is not passed on unchecked.)
 """
 
@@ -17,10 +19,32 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import Any, NamedTuple
 
-Check = tuple[Callable[[Any], bool], str]
-"""A test of a value and what it expects, as the error message says it."""
+
+class Check(NamedTuple):
+    """A test of a value, what it expects (as the error message says it), and what the value
+    becomes for SB3 once it passed (a count read as ``2.0`` must reach it as ``2``)."""
+
+    test: Callable[[Any], bool]
+    expected: str
+    convert: Callable[[Any], Any] | None = None
+
+
+RUN_KEYS = ("n_timesteps", "n_envs", "frame_stack", "vec_env_wrapper", "env_kwargs")
+"""RL Zoo's keys of an entry that configure the run; the rest go to the algorithm."""
+
+ZOO_ONLY_KEYS = (
+    "normalize",
+    "env_wrapper",
+    "callback",
+    "monitor_kwargs",
+    "replay_buffer_class",
+    "replay_buffer_kwargs",
+    "noise_type",
+    "noise_std",
+)
+"""RL Zoo's keys train.py does not implement: refused rather than silently ignored."""
 
 
 def _real(value: Any) -> bool:
@@ -33,7 +57,7 @@ def is_count(value: Any, low: int) -> bool:
 
 
 def _count(low: int) -> Check:
-    return (lambda v: is_count(v, low)), f"an integer >= {low}"
+    return Check(lambda v: is_count(v, low), f"an integer >= {low}", int)
 
 
 def _number(low: float, *, strict: bool = True, high: float | None = None) -> Check:
@@ -41,22 +65,20 @@ def _number(low: float, *, strict: bool = True, high: float | None = None) -> Ch
         return _real(v) and (v > low if strict else v >= low) and (high is None or v <= high)
 
     if high is None:
-        return ok, f"a number {'>' if strict else '>='} {low:g}"
-    return ok, f"a number in {'(' if strict else '['}{low:g}, {high:g}]"
+        return Check(ok, f"a number {'>' if strict else '>='} {low:g}")
+    return Check(ok, f"a number in {'(' if strict else '['}{low:g}, {high:g}]")
 
 
 def _or_none(check: Check) -> Check:
-    test, expected = check
-    return (lambda v: v is None or test(v)), f"{expected} or null"
+    return Check(lambda v: v is None or check.test(v), f"{check.expected} or null", check.convert)
 
 
 def _or_schedule(check: Check) -> Check:
-    test, expected = check
-    return (lambda v: callable(v) or test(v)), f"{expected} (or a schedule, from Python)"
+    return Check(lambda v: callable(v) or check.test(v), f"{check.expected} (or a schedule, from Python)")
 
 
-FLAG: Check = (lambda v: isinstance(v, bool), "true or false")
-POLICY: Check = (
+FLAG = Check(lambda v: isinstance(v, bool), "true or false")
+POLICY = Check(
     lambda v: v == "MlpPolicy",
     "'MlpPolicy' (sma-gym's observations are flat vectors: CnnPolicy is for images, MultiInputPolicy for dicts)",
 )
@@ -68,18 +90,23 @@ def _train_freq(value: Any) -> bool:
     return is_count(value, 1)
 
 
+def _as_train_freq(value: Any) -> Any:
+    """SB3 reads a tuple only (a YAML or literal list was refused when the model was built)."""
+    return (int(value[0]), value[1]) if isinstance(value, (tuple, list)) else int(value)
+
+
 def _sac_ent_coef(value: Any) -> bool:
     if isinstance(value, str):  # "auto" or "auto_<initial value>", learnt either way
-        head, _, initial = value.partition("_")
+        head, sep, initial = value.partition("_")
         if head != "auto":
             return False
-        if not initial:
+        if not sep:
             return True
         try:
-            return _number(0.0)[0](float(initial))
+            return _number(0.0).test(float(initial))
         except ValueError:
             return False
-    return _number(0.0)[0](value)
+    return _number(0.0, strict=False).test(value)  # 0: no entropy bonus (an ablation SB3 trains)
 
 
 _COMMON: dict[str, Check] = {
@@ -87,12 +114,11 @@ _COMMON: dict[str, Check] = {
     "learning_rate": _or_schedule(_number(0.0)),
     "gamma": _number(0.0, high=1.0),
     "use_sde": FLAG,
-    "sde_sample_freq": (
-        lambda v: is_count(v, -1),
-        "an integer >= -1 (-1 or 0: new noise only at the start of a rollout)",
+    "sde_sample_freq": Check(
+        lambda v: is_count(v, -1), "an integer >= -1 (-1 or 0: new noise only at the start of a rollout)", int
     ),
     "stats_window_size": _count(1),
-    "policy_kwargs": (lambda v: isinstance(v, Mapping), "dict(name=literal, ...)"),
+    "policy_kwargs": Check(lambda v: isinstance(v, Mapping), "dict(name=literal, ...)"),
 }
 
 KEYWORDS: dict[str, dict[str, Check]] = {
@@ -102,22 +128,24 @@ KEYWORDS: dict[str, dict[str, Check]] = {
         "learning_starts": _count(0),
         "batch_size": _count(1),
         "tau": _number(0.0, high=1.0),  # 0 would never update the target networks
-        "train_freq": (_train_freq, "an integer >= 1 or [n, 'step' | 'episode']"),
-        "gradient_steps": (
+        "train_freq": Check(_train_freq, "an integer >= 1 or [n, 'step' | 'episode']", _as_train_freq),
+        "gradient_steps": Check(
             lambda v: is_count(v, -1) and v != 0,
             "an integer >= 1, or -1 (as many as environment steps); 0 would never train",
+            int,
         ),
-        "optimize_memory_usage": FLAG,
+        # SB3 refuses True with the replay buffer's timeout handling, which the envs' time limits need.
+        "optimize_memory_usage": Check(lambda v: v is False, "false (SB3 refuses true with time-limited episodes)"),
         "n_steps": _count(1),
-        "ent_coef": (_sac_ent_coef, "a number > 0, 'auto' or 'auto_<initial number > 0>'"),
+        "ent_coef": Check(_sac_ent_coef, "a number >= 0, 'auto' or 'auto_<initial number > 0>'"),
         "target_update_interval": _count(1),
-        "target_entropy": (lambda v: v == "auto" or _real(v), "'auto' or a number"),
+        "target_entropy": Check(lambda v: v == "auto" or _real(v), "'auto' or a number"),
         "use_sde_at_warmup": FLAG,
     },
     "ppo": {
         **_COMMON,
         "n_steps": _count(1),
-        "batch_size": _count(2),  # SB3 normalises advantages over a minibatch
+        "batch_size": _count(1),  # >= 2 with normalize_advantage: checked with it below
         "n_epochs": _count(1),
         "gae_lambda": _number(0.0, strict=False, high=1.0),  # 0: one-step TD
         "clip_range": _or_schedule(_number(0.0)),
@@ -141,33 +169,28 @@ OWN_KEYWORDS = {
 }
 """Keywords ``train.py`` sets itself, with the option that sets them."""
 
-NOT_FROM_A_FILE = (
-    "action_noise",
-    "replay_buffer_class",
-    "replay_buffer_kwargs",
-    "rollout_buffer_class",
-    "rollout_buffer_kwargs",
-)
-"""Keywords whose values are objects (RL Zoo builds some from its own keys, which train.py
-does not implement)."""
+NOT_FROM_A_FILE = {"sac": ("action_noise",), "ppo": ("rollout_buffer_class", "rollout_buffer_kwargs")}
+"""Keywords whose values are objects, per algorithm (SAC's replay buffer's are
+:data:`ZOO_ONLY_KEYS`: RL Zoo builds them from its own keys)."""
 
-_NET: Check = (
+_NET = Check(
     lambda v: isinstance(v, list) and all(is_count(n, 1) for n in v),
     "a list of layer sizes (integers >= 1)",
+    lambda v: [int(n) for n in v],
 )
 
 POLICY_KEYWORDS: dict[str, dict[str, Check]] = {
     algo: {
-        "log_std_init": (_real, "a number"),
+        "log_std_init": Check(_real, "a number"),
         "use_expln": FLAG,
-        "features_extractor_kwargs": (lambda v: isinstance(v, Mapping), "a dict"),
+        "features_extractor_kwargs": Check(lambda v: isinstance(v, Mapping), "a dict"),
         "normalize_images": FLAG,
-        "optimizer_kwargs": (lambda v: isinstance(v, Mapping) and all(isinstance(k, str) for k in v), "a dict"),
+        "optimizer_kwargs": Check(lambda v: isinstance(v, Mapping) and all(isinstance(k, str) for k in v), "a dict"),
         "share_features_extractor": FLAG,
         **extra,
     }
     for algo, extra in (
-        ("sac", {"clip_mean": _number(0.0), "n_critics": _count(1)}),
+        ("sac", {"clip_mean": _number(0.0, strict=False), "n_critics": _count(1)}),  # clip_mean 0: no clipping
         ("ppo", {"ortho_init": FLAG, "full_std": FLAG, "squash_output": FLAG}),
     )
 }
@@ -181,7 +204,7 @@ POLICY_SET_BY_ALGORITHM = ("observation_space", "action_space", "lr_schedule", "
 """Policy keywords the algorithm passes itself (``use_sde`` is the algorithm's keyword)."""
 
 
-def _text_number_hint(value: Any) -> str:
+def text_number_hint(value: Any) -> str:
     """Why a number may have arrived as text: YAML 1.1 reads ``3e-4`` (no dot) as a string."""
     if isinstance(value, str) and "e" in value.lower():
         try:
@@ -193,45 +216,62 @@ def _text_number_hint(value: Any) -> str:
     return ""
 
 
-def check_model_kwargs(model_kwargs: Mapping[str, Any], algo: str, where: str) -> None:
-    """Refuse a keyword of ``algo`` (``"sac"``/``"ppo"``) that train.py does not pass on, or a
-    value stable-baselines3 cannot learn with or would refuse only late; a ``ValueError``
-    naming ``where``, the key, its value and what was expected."""
+def _checked(check: Check, key: str, value: Any, where: str) -> Any:
+    if not check.test(value):
+        raise ValueError(f"{where}: {key} = {value!r}: expected {check.expected}{text_number_hint(value)}")
+    return value if check.convert is None else check.convert(value)
+
+
+def check_model_kwargs(model_kwargs: Mapping[str, Any], algo: str, source: Callable[[str], str]) -> dict[str, Any]:
+    """``model_kwargs`` of ``algo`` (``"sac"``/``"ppo"``) checked, as SB3 takes them (counts as
+    ``int``, ``train_freq`` as a tuple). A keyword train.py does not pass on, or a value SB3
+    cannot learn with or would refuse only late, is a ``ValueError`` naming where the key
+    came from (``source(key)``), the key, its value and what was expected."""
     table = KEYWORDS[algo]
+    out = {}
     for key, value in model_kwargs.items():
+        where = source(key)
         if key in OWN_KEYWORDS:
             raise ValueError(f"{where}: {key} is set by {OWN_KEYWORDS[key]}, not by the hyperparameters")
-        if key in NOT_FROM_A_FILE:
+        if key in NOT_FROM_A_FILE[algo]:
             raise ValueError(f"{where}: {key} takes an object, which train.py cannot read from a file")
         if key not in table:
             raise ValueError(
-                f"{where}: {key!r} is no keyword of stable-baselines3's {algo.upper()}; expected one of {sorted(table)}"
+                f"{where}: {key!r} is neither a run key {list(RUN_KEYS)} nor a keyword of stable-baselines3's "
+                f"{algo.upper()} {sorted(table)}"
             )
-        test, expected = table[key]
-        if not test(value):
-            raise ValueError(f"{where}: {key} = {value!r}: expected {expected}{_text_number_hint(value)}")
-    if "policy_kwargs" in model_kwargs:
-        check_policy_kwargs(model_kwargs["policy_kwargs"], algo, f"{where}: policy_kwargs")
+        out[key] = _checked(table[key], key, value, where)
+        if key == "policy_kwargs":
+            out[key] = check_policy_kwargs(value, algo, f"{where}: policy_kwargs")
+    if algo == "ppo" and out.get("batch_size") == 1 and out.get("normalize_advantage", True):
+        # SB3 asserts it when the model is built: one sample has no spread to normalise by.
+        raise ValueError(
+            f"{source('batch_size')}: batch_size = 1 with normalize_advantage: expected batch_size >= 2, "
+            "or normalize_advantage: false"
+        )
+    return out
 
 
-def check_policy_kwargs(policy_kwargs: Mapping[str, Any], algo: str, where: str) -> None:
+def check_policy_kwargs(policy_kwargs: Mapping[str, Any], algo: str, where: str) -> dict[str, Any]:
     """:func:`check_model_kwargs` for the policy's keywords."""
     table = POLICY_KEYWORDS[algo]
     heads = NET_HEADS[algo]
+    out = {}
     for key, value in policy_kwargs.items():
         if key in POLICY_SET_BY_ALGORITHM:
             raise ValueError(
                 f"{where}: {key} is set by the algorithm{' (its own use_sde keyword)' if key == 'use_sde' else ''}"
             )
         if key == "net_arch":
-            sizes = value.values() if isinstance(value, Mapping) else [value]
-            if isinstance(value, Mapping) and not set(value) <= set(heads):
-                ok = False
+            if value is None:  # SB3's default sizes
+                out[key] = value
+            elif isinstance(value, Mapping) and set(value) <= set(heads) and all(_NET.test(v) for v in value.values()):
+                out[key] = {head: _NET.convert(v) for head, v in value.items()}
+            elif _NET.test(value):
+                out[key] = _NET.convert(value)
             else:
-                ok = all(_NET[0](v) for v in sizes)
-            if not ok:
                 raise ValueError(
-                    f"{where}: net_arch = {value!r}: expected {_NET[1]}, or dict({'=[...], '.join(heads)}=[...]) "
+                    f"{where}: net_arch = {value!r}: expected {_NET.expected}, or dict({'=[...], '.join(heads)}=[...]) "
                     f"for the actor and the critic apart"
                 )
             continue
@@ -240,6 +280,5 @@ def check_policy_kwargs(policy_kwargs: Mapping[str, Any], algo: str, where: str)
                 f"{where}: {key!r} is no literal keyword of {algo.upper()}'s MlpPolicy; expected one of "
                 f"{sorted([*table, 'net_arch'])}"
             )
-        test, expected = table[key]
-        if not test(value):
-            raise ValueError(f"{where}: {key} = {value!r}: expected {expected}{_text_number_hint(value)}")
+        out[key] = _checked(table[key], key, value, where)
+    return out

@@ -113,8 +113,8 @@ def make_model(run: RunConfig, venv: Any, out: Path) -> Any:
         # What only the algorithm, the policy or torch's optimiser can check (optimizer_kwargs,
         # a batch larger than PPO's rollout): refused as a bad option, before any training.
         raise ValueError(
-            f"hyperparameters of {run.algo.upper()} ({', '.join(sorted(run.model_kwargs))}): stable-baselines3 "
-            f"refused them: {err}"
+            f"the hyperparameters of {run.algo.upper()} ({', '.join(sorted(run.model_kwargs))}): stable-baselines3 "
+            f"refused one of them: {err}"
         ) from None
 
 
