@@ -7,6 +7,7 @@ says what was expected, so a user never has to read a numpy traceback.
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -102,9 +103,16 @@ def require_range(
 
 
 def require_int_range(name: str, value: Any, lower: int, upper: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int,)) and not (hasattr(value, "__index__")):
+    """``value`` as an ``int`` in [lower, upper]: a Python or numpy integer (``operator.index``
+    takes them and nothing else: a 0-d array ``2.9`` was truncated to 2 and ``True`` read as 1)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iu":
+        value = value.item()  # a 0-d integer array, as numpy hands out
+    if isinstance(value, (bool, np.bool_)):
         raise ValueError(f"{name} = {_fmt(value)}: expected an integer in [{lower}, {upper}]")
-    number = int(value)
+    try:
+        number = operator.index(value)
+    except TypeError:
+        raise ValueError(f"{name} = {_fmt(value)}: expected an integer in [{lower}, {upper}]") from None
     if number < lower or number > upper:
         raise ValueError(f"{name} = {_fmt(value)}: expected an integer in [{lower}, {upper}]")
     return number

@@ -131,7 +131,10 @@ def model_names() -> tuple[str, ...]:
 
 
 def load_model(spec: ModelSpec = None) -> ModelConfig:
-    """Resolve a preset or twin name, a JSON file path, a dict, parameters or a config."""
+    """Resolve a preset or twin name, a JSON file path, a dict, parameters or a config.
+
+    A string is a preset's or twin's name where it is one, else a path; a ``pathlib.Path``
+    (any ``os.PathLike``) is always a file, so a file named like a preset is read with one."""
     if spec is None:
         return ModelConfig()
     if isinstance(spec, ModelConfig):
@@ -140,8 +143,10 @@ def load_model(spec: ModelSpec = None) -> ModelConfig:
         return ModelConfig(actuator=spec)
     if isinstance(spec, Mapping):
         return ModelConfig.from_dict(spec)
-    if isinstance(spec, (str, os.PathLike)):
-        text = os.fspath(spec)
+    if isinstance(spec, os.PathLike):
+        return ModelConfig.load(os.fspath(spec))  # a Path means a file (it read the preset of its name)
+    if isinstance(spec, str):
+        text = spec
         if text in preset_names():
             return ModelConfig(actuator=preset(text))
         if text in twin_names():

@@ -879,8 +879,15 @@ def _one_expansion_for_both_phases(wire: dict[str, Any]) -> dict[str, Any]:
         return wire
     out = dict(wire)
     alpha = out.pop("thermal_expansion_1_k")
-    out.setdefault("thermal_expansion_austenite_1_k", alpha)
-    out.setdefault("thermal_expansion_martensite_1_k", alpha)
+    phases = ("thermal_expansion_austenite_1_k", "thermal_expansion_martensite_1_k")
+    if all(k in out for k in phases):
+        # It would be dropped without a word: which did the file mean?
+        raise ValueError(
+            f"wire.thermal_expansion_1_k = {alpha!r} beside wire.{phases[0]} and wire.{phases[1]}: expected the one "
+            "coefficient of older files, or the per-phase ones (it gives a phase that is not given), not all three"
+        )
+    for key in phases:
+        out.setdefault(key, alpha)
     return out
 
 

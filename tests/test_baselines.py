@@ -475,7 +475,7 @@ def test_a_policy_that_overheats_the_wire_costs_only_itself_and_is_named_with_wh
     from sma_gym_agents.evaluation import ENDED_EARLY, PolicyEntry, run_table_6_1
     from sma_gym_agents.report import table_6_1_markdown
 
-    kwargs = {"control_period_s": 1e-2, "overheat_limit_c": 60.0}
+    kwargs = {"control_period_s": 1e-2, "overheat_limit_c": 70.0}
     entries = [
         PolicyEntry(name, lambda env, d=d: _Constant(d), env_kwargs=kwargs) for name, d in (("off", 0.0), ("full", 1.0))
     ]

@@ -481,7 +481,7 @@ def test_an_episode_that_ends_on_its_last_step_is_terminated_and_truncated_as_in
     """Gymnasium's ``TimeLimit`` truncates at the step limit whatever ``terminated`` says, so a
     wire that overheats on the last step is both; the native envs reported it terminated only
     (a loop that counts time-outs apart from failures saw one fewer)."""
-    hot = {"overheat_limit_c": 45.0}
+    hot = {"overheat_limit_c": 80.0}
     probe = native(env_id, 1, **hot)
     probe.reset(seed=0)
     full = np.ones(probe.action_space.shape, dtype=np.float32)

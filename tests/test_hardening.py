@@ -1194,7 +1194,7 @@ def test_policy_paths_and_controller_observations_are_named_when_wrong(tmp_path)
         load_policy(tmp_path)
     policy = ControllerPolicy("PID", gym.make("sma_gym:SMATracking-v0"))
     k = policy.k
-    with pytest.raises(ValueError, match="NaN or inf"):
+    with pytest.raises(ValueError, match="observation holds NaN at feature"):
         policy.predict(np.full(k, np.nan))
     with pytest.raises(ValueError, match=rf"shape \({k + 1},\)"):
         policy.predict(np.zeros(k + 1))
@@ -1968,3 +1968,68 @@ def test_an_empty_out_is_refused_not_read_as_no_out(capsys, monkeypatch):
     for empty in ("", " "):
         assert main(["--quick", "--no-progress", "--out", empty]) == 2
         assert "--out" in capsys.readouterr().err
+
+
+def test_a_robust_env_refuses_condition_ranges_that_can_draw_a_wire_it_cannot_run_at_make():
+    """Found by an audit: ranges whose draws included an invalid wire were accepted, and the
+    first such draw failed a reset, and every reset after it (a refused reset restores the
+    generator, so it drew the same condition again): the env was stuck."""
+    import sma_gym
+
+    warm = sma_gym.load_model().with_actuator(**{"convection.ambient_temperature_c": 58.0})
+    cases = [
+        (dict(model=warm, convection="natural"), "ambient_temperature_c = 58.0"),  # shift -3 K: below ambient
+        (dict(reference="report-step", spread=3, wire_diameter_m=5e-5), "reference 'report-step'"),
+        (dict(wire_diameter_m=(5e-5, 2e-4), reference="report-step"), "wire diameter 0.05 mm"),
+    ]
+    for kwargs, cause in cases:
+        with pytest.raises(ValueError, match="expected ranges whose every draw can") as err:
+            gym.make("sma_gym:SMARobust-v0", **kwargs)
+        assert cause in str(err.value) and "supply_voltage_v, convection, wire_diameter_m, spread" in str(err.value)
+    # Without the spread the same warm wire is always valid, and every reset works.
+    env = gym.make("sma_gym:SMARobust-v0", model=warm, convection="natural", spread=0)
+    env.reset(seed=0)
+    for _ in range(40):
+        env.reset()
+
+
+def test_settings_no_episode_can_run_with_are_refused_at_make():
+    """An overheat limit below where the wire starts to move ended every step's episode (a
+    training loop reset for ever); a self-sensing model whose pulses at the smallest duty
+    are shorter than the settling never read its resistance."""
+    import sma_gym
+
+    for env_id in ("SMATracking-v0", "SMAMultiplexed-v0", "SMARobust-v0"):
+        with pytest.raises(ValueError, match=r"overheat_limit_c = 50.0: the wire of .* starts to contract at 61.1"):
+            gym.make(f"sma_gym:{env_id}", overheat_limit_c=50.0)
+    gym.make("sma_gym:SMATracking-v0", overheat_limit_c=70.0)
+    fast = sma_gym.load_model("forced-convection").with_actuator(**{"driver.pwm_frequency_hz": 1e5})
+    with pytest.raises(ValueError, match=r"pwm_frequency_hz = 100000.0 .* expected pwm_frequency_hz below 1000 Hz"):
+        gym.make("sma_gym:SMASelfSensing-v0", model=fast)
+    gym.make("sma_gym:SMATracking-v0", model=fast)  # the position sensor needs no reading of R
+
+
+def test_integer_arguments_take_numpy_integers_and_nothing_that_int_would_truncate():
+    gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=np.int64(3))
+    assert gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=np.array(3)).unwrapped.n == 3
+    for value in (np.array(2.9), np.array(True), np.array([4]), np.bool_(True), 2.0):
+        with pytest.raises(ValueError, match=r"n_actuators = .*expected an integer in \[1, 16\]"):
+            gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=value)
+
+
+def test_a_path_names_a_file_even_when_a_preset_has_its_name_and_old_and_new_expansions_conflict(tmp_path, monkeypatch):
+    import json
+
+    from sma_gym.model import load_model
+
+    data = load_model("standard").with_actuator(**{"driver.supply_voltage_v": 20.0}).to_dict()
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "standard").write_text(json.dumps(data))
+    assert load_model(Path("standard")).actuator.driver.supply_voltage_v == 20.0  # read the 10 V preset
+    assert load_model("standard").actuator.driver.supply_voltage_v == 10.0  # a name is the preset
+    data["actuator"]["wire"]["thermal_expansion_1_k"] = 5e-6  # beside the two per-phase keys
+    (tmp_path / "both.json").write_text(json.dumps(data))
+    with pytest.raises(
+        ValueError, match=r"thermal_expansion_1_k = 5e-06 beside wire.thermal_expansion_austenite_1_k and wire"
+    ):
+        load_model("both.json")

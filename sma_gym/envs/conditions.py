@@ -13,7 +13,9 @@ resistivity +-5 % (``spread`` scales all of these; 0 switches them off).
 
 from __future__ import annotations
 
+import itertools
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -95,11 +97,72 @@ class Conditions:
         convection = self.convection[int(rng.integers(len(CONVECTIONS))) % len(self.convection)]
         diameter = float(u(*self.wire_diameter_m))
         s = self.spread
-        h_scale = float(np.exp(u(-0.15, 0.15) * s))
-        shift = float(u(-3.0, 3.0) * s)
-        eps_scale = float(1.0 + u(-0.05, 0.05) * s)
-        preload_scale = float(1.0 + u(-0.2, 0.2) * s)
-        rho_scale = float(1.0 + u(-0.05, 0.05) * s)
+        return self._build(
+            base,
+            voltage,
+            convection,
+            diameter,
+            h_scale=float(np.exp(u(-0.15, 0.15) * s)),
+            shift=float(u(-3.0, 3.0) * s),
+            eps_scale=float(1.0 + u(-0.05, 0.05) * s),
+            preload_scale=float(1.0 + u(-0.2, 0.2) * s),
+            rho_scale=float(1.0 + u(-0.05, 0.05) * s),
+        )
+
+    def corners(self) -> list[dict[str, Any]]:
+        """Every combination of the ends of the ranges (each condition at its low or high end,
+        each convection given; a fixed value once): where a draw is most extreme."""
+        s = self.spread
+        ends = {
+            "voltage": sorted(set(self.supply_voltage_v)),
+            "convection": list(self.convection),
+            "diameter": sorted(set(self.wire_diameter_m)),
+            "h_scale": sorted({float(np.exp(-0.15 * s)), float(np.exp(0.15 * s))}),
+            "shift": sorted({-3.0 * s, 3.0 * s}),
+            "eps_scale": sorted({1.0 - 0.05 * s, 1.0 + 0.05 * s}),
+            "preload_scale": sorted({1.0 - 0.2 * s, 1.0 + 0.2 * s}),
+            "rho_scale": sorted({1.0 - 0.05 * s, 1.0 + 0.05 * s}),
+        }
+        return [dict(zip(ends, values, strict=True)) for values in itertools.product(*ends.values())]
+
+    def check(self, base: ModelConfig, check_model: Callable[[ModelConfig], None]) -> None:
+        """Refuse ranges that can draw a wire ``base`` cannot be (a preload past the thinnest
+        wire's strength, transformation temperatures shifted below the surroundings) or one
+        ``check_model`` refuses (a reference beyond its stroke): checked at every corner of
+        the ranges, since each such limit moves one way with each condition. Such a draw failed
+        at some reset, and every reset after it (a refused reset restores the generator, so it
+        drew the same condition again)."""
+        for corner in self.corners():
+            try:
+                model, _ = self._build(base, **corner)
+                check_model(model)
+            except ValueError as err:
+                shown = (
+                    f"supply {corner['voltage']:g} V, {corner['convection']} convection, wire diameter "
+                    f"{corner['diameter'] * 1e3:g} mm; spread {self.spread:g}: transformation shift "
+                    f"{corner['shift']:+g} K, strain x{corner['eps_scale']:g}, preload x{corner['preload_scale']:g}"
+                )
+                raise ValueError(
+                    f"supply_voltage_v, convection, wire_diameter_m, spread = {self.supply_voltage_v}, "
+                    f"{self.convection}, {self.wire_diameter_m}, {self.spread:g}: the condition ({shown}) gives a wire "
+                    f"the episode cannot run on ({err}); expected ranges whose every draw can (narrow them, or "
+                    "lower the spread)"
+                ) from None
+
+    @staticmethod
+    def _build(
+        base: ModelConfig,
+        voltage: float,
+        convection: str,
+        diameter: float,
+        *,
+        h_scale: float,
+        shift: float,
+        eps_scale: float,
+        preload_scale: float,
+        rho_scale: float,
+    ) -> tuple[ModelConfig, dict[str, Any]]:
+        """The model and the condition record of one drawn (or corner) condition."""
         p = base.actuator
         w, c = p.wire, p.convection
         factor = h_scale * (FORCED_CONVECTION_FACTOR if convection == "forced" else 1.0)

@@ -96,8 +96,8 @@ ARGUMENTS = f"""
       draws that kind), are
       :data:`~sma_gym.envs.references.FIELDS`. The same in `reset(options={{"reference": ...}})`.
     - `energy_weight`: 0 to 10 (default {task.DEFAULT_ENERGY_WEIGHT:g}); `overheat_limit_c`:
-      40 to 500 degC (default {task.DEFAULT_OVERHEAT_C:g}: Flexinol's trained memory
-      degrades when held much hotter).
+      40 to 500 degC and above the temperature where the wire starts to contract (default
+      {task.DEFAULT_OVERHEAT_C:g}: Flexinol's trained memory degrades when held much hotter).
     - `position_noise_std_m`, `resistance_noise_std_ohm`: override the model's sensor noise.
     """
 
@@ -155,7 +155,14 @@ MODEL_CHANGE = """
       when it terminated there too, as `TimeLimit` does (they reported it terminated
       only), and `render()` without frames warns and returns one `None` per sub-env, as
       `SyncVectorEnv` does. A ramp reference shorter than 1 us and a hand-built
-      `Reference` that fails a dict's checks are refused.
+      `Reference` that fails a dict's checks are refused. Refused at make, where before no
+      episode could run: an `overheat_limit_c` at or below the temperature where the wire
+      starts to contract (every step ended the episode), and, on `SMASelfSensing-v0`, a model
+      whose PWM pulses at the smallest duty are no longer than the settling time (its
+      resistance was never read). `SMARobust-v0` checks its condition ranges at their
+      corners at make: ranges that could draw a wire it cannot run (below the surroundings'
+      temperature, a reference beyond its stroke) failed a reset at random, and every reset
+      after it. Integer kwargs take numpy integers and refuse what `int()` would truncate.
     """
 
 ROBUST_MODEL_CHECK = """

@@ -8,8 +8,9 @@ that the native vector env (:mod:`sma_gym.envs.vector`) uses too.
 
 from __future__ import annotations
 
+import functools
 import inspect
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -186,16 +187,12 @@ class Settings:
         for name in names:
             if not isinstance(name, dict):
                 require_choice("reference", name, refs.NAMED)
-            # Validates every field, and the levels of a dict or of the report's fixed
-            # references against the nominal model's stroke (reset checks again against the
-            # actuator's own).
-            refs.resolve(name, np.random.default_rng(0), m.actuator.usable_stroke_m, "step")
         given = {key: a[key] for key in CONDITION_KWARGS if a.get(key) is not None}
         if not variant.randomised:
             reject_unknown(given, accepted)
         elif a["model"] is not None:
             require_no_silent_override(m, load_model(variant.default_model), set(given), a["model"])
-        return cls(
+        settings = cls(
             model=m,
             control_period_s=require_range("control_period_s", a["control_period_s"], 1e-4, 0.1, "s"),
             reference=names,
@@ -204,6 +201,17 @@ class Settings:
             pwm_mode=require_choice("pwm_mode", a["pwm_mode"], PWM_MODES),
             conditions=Conditions.from_kwargs(**given) if variant.randomised else None,
         )
+        # Every wire an episode can get: the model, and every corner of the conditions' ranges
+        # (after the model, so that what no condition causes is named plainly).
+        require_usable(m, variant, names, settings.overheat_limit_c)
+        if settings.conditions is not None:
+            # 0.1 s for the 256 corners of the default ranges: once per configuration.
+            frozen = tuple(tuple(sorted(n.items())) if isinstance(n, dict) else n for n in names)
+            try:
+                _check_corners(settings.conditions, m, variant, frozen, settings.overheat_limit_c)
+            except TypeError:  # a reference dict's value that cannot be hashed: checked uncached
+                _check_corners.__wrapped__(settings.conditions, m, variant, frozen, settings.overheat_limit_c)
+        return settings
 
     def task_state(self, n: int, observation: int) -> task.TaskState:
         """Task data for n actuators with these settings."""
@@ -255,6 +263,42 @@ def start_actuator(
     sim.reset(np.array([i]))
     state.reset_actuator(i, sim)
     return condition
+
+
+def require_usable(model: ModelConfig, variant: Variant, reference: Sequence, overheat_limit_c: float) -> None:
+    """Refuse a wire on which an env's episodes cannot run: a reference (a dict's fields, the
+    report's fixed levels) beyond its stroke, an overheat limit it reaches before it moves
+    (every step would end the episode), or, with the resistance observed, PWM pulses too
+    short for a reading at the smallest duty (it would never be read)."""
+    a = model.actuator
+    for name in reference:
+        refs.resolve(name, np.random.default_rng(0), a.usable_stroke_m, "step")
+    start_c = a.highest_rest_temperature_c
+    if overheat_limit_c <= start_c:
+        raise ValueError(
+            f"overheat_limit_c = {overheat_limit_c!r}: the wire of {a.name!r} starts to contract at "
+            f"{start_c:.1f} degC (ActuatorParams.highest_rest_temperature_c), so every step would end its episode "
+            "before it moved; expected a limit above it"
+        )
+    if variant.observation == task.OBS_SELF_SENSING:
+        pulse_s = variant.duty_range.low / a.driver.pwm_frequency_hz
+        if pulse_s <= a.driver.settling_time_s:
+            raise ValueError(
+                f"model {a.name!r}: Driver.pwm_frequency_hz = {a.driver.pwm_frequency_hz!r} with the env's smallest "
+                f"duty {variant.duty_range.low:g} gives {pulse_s * 1e6:.3g} us pulses, no longer than "
+                f"Driver.settling_time_s = {a.driver.settling_time_s!r}: the resistance could never be read; "
+                f"expected pwm_frequency_hz below {variant.duty_range.low / a.driver.settling_time_s:g} Hz"
+            )
+
+
+@functools.lru_cache(maxsize=64)
+def _check_corners(
+    conditions: Conditions, model: ModelConfig, variant: Variant, frozen: tuple, overheat_limit_c: float
+) -> None:
+    """:meth:`Conditions.check` with :func:`require_usable`, remembered once it passed
+    (``frozen``: the reference names, each dict as its sorted items)."""
+    reference = [dict(n) if isinstance(n, tuple) else n for n in frozen]
+    conditions.check(model, lambda drawn: require_usable(drawn, variant, reference, overheat_limit_c))
 
 
 class MadeWith:
