@@ -2033,3 +2033,11 @@ def test_a_path_names_a_file_even_when_a_preset_has_its_name_and_old_and_new_exp
         ValueError, match=r"thermal_expansion_1_k = 5e-06 beside wire.thermal_expansion_austenite_1_k and wire"
     ):
         load_model("both.json")
+
+
+def test_an_effect_written_flat_with_a_form_is_told_where_its_parameters_go():
+    """It said only "unknown key(s) ['force_n']", though force_n is the effect's parameter."""
+    from sma_gym.effects import EffectSet
+
+    with pytest.raises(ValueError, match=r"expected \{'parameters': \{'force_n': \.\.\.\}, 'form': \.\.\.\}"):
+        EffectSet.of({"coulomb_friction": {"force_n": 0.5, "form": "stribeck"}})

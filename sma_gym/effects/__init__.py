@@ -311,7 +311,11 @@ class EffectSet:
                 if "parameters" in value or "form" in value:
                     unknown = set(value) - {"parameters", "form"}
                     if unknown:
-                        raise ValueError(f"effects[{name!r}]: unknown key(s) {sorted(unknown)}")
+                        raise ValueError(
+                            f"effects[{name!r}]: unknown key(s) {sorted(unknown)} beside 'parameters'/'form'; expected "
+                            f"{{'parameters': {{{', '.join(f'{k!r}: ...' for k in sorted(unknown))}}}, 'form': ...}} "
+                            "(a flat mapping of parameter values takes no 'form')"
+                        )
                     parameters = value.get("parameters", {})
                     if not isinstance(parameters, Mapping):
                         raise ValueError(
