@@ -142,7 +142,7 @@ def load_model(spec: ModelSpec = None) -> ModelConfig:
     if isinstance(spec, ActuatorParams):
         return ModelConfig(actuator=spec)
     if isinstance(spec, Mapping):
-        return ModelConfig.from_dict(spec)
+        return ModelConfig.from_dict(_from_dataclass_dict(spec))
     if isinstance(spec, os.PathLike):
         return ModelConfig.load(os.fspath(spec))  # a Path means a file (it read the preset of its name)
     if isinstance(spec, str):
@@ -157,6 +157,26 @@ def load_model(spec: ModelSpec = None) -> ModelConfig:
             f"model = {text!r}: expected a preset name ({', '.join(model_names())}) or a path to a model JSON file"
         )
     raise ValueError(f"model = {spec!r}: expected a preset name, a path, ModelConfig or ActuatorParams")
+
+
+def _from_dataclass_dict(spec: Mapping[str, Any]) -> Mapping[str, Any]:
+    """``dataclasses.asdict`` of a :class:`ModelConfig` in the file's layout: what Gymnasium's
+    ``EnvSpec.to_json`` makes of an env's ``model=ModelConfig(...)`` (the env could not be
+    made again from its JSON spec: "'format' = None"). Any other mapping as it is."""
+    effects = spec.get("effects")
+    if "format" in spec or set(spec) != {"actuator", "effects", "notes"} or not isinstance(effects, Mapping):
+        return spec
+    settings = effects.get("settings")
+    if set(effects) != {"settings"} or not isinstance(settings, (list, tuple)):
+        return spec
+    if not all(isinstance(e, Mapping) and set(e) == {"name", "values", "form"} for e in settings):
+        return spec
+    return {
+        **spec,
+        "format": FORMAT_NAME,
+        "version": FORMAT_VERSION,
+        "effects": {e["name"]: {"parameters": e["values"], "form": e["form"]} for e in settings},
+    }
 
 
 def _encode_inf(tree: Any) -> None:

@@ -351,6 +351,73 @@ def test_sb3_logs_ep_rew_mean_and_evaluate_policy_does_not_warn(tmp_path):
     assert np.isfinite(mean)
 
 
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+def test_sb3_adapter_passes_the_robust_envs_conditions_and_the_reset_infos_as_dummy_vec_env(mode):
+    """Found by an audit: the adapter passed only the base info keys, so a robust episode's
+    condition_* (which the README tells users to read) was lost, and reset_infos stayed empty."""
+    from stable_baselines3.common.monitor import Monitor
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    ours = SB3VecEnv(native("SMARobust-v0", n=2, max_episode_steps=5, autoreset_mode=mode))
+    theirs = DummyVecEnv([lambda: Monitor(gym.make("sma_gym:SMARobust-v0", max_episode_steps=5)) for _ in range(2)])
+    for venv in (ours, theirs):
+        venv.seed(3)
+        venv.reset()
+    for venv in (ours, theirs):
+        assert sorted(k for k in venv.reset_infos[1] if k.startswith("condition_")) == sorted(
+            k for k in theirs.reset_infos[1] if k.startswith("condition_")
+        )
+    assert ours.reset_infos[1]["condition_supply_voltage_v"] == theirs.reset_infos[1]["condition_supply_voltage_v"]
+    for step in range(6):  # the episodes end at step 5 and start again
+        action = np.full((2, 1), 0.2, np.float32)
+        (_, _, done_a, infos_a), (_, _, done_b, infos_b) = ours.step(action), theirs.step(action)
+        assert np.array_equal(done_a, done_b)
+        for key in ("condition_supply_voltage_v", "condition_wire_diameter_m"):
+            assert [i[key] for i in infos_a] == pytest.approx([i[key] for i in infos_b]), (step, key)
+        if done_a.any():
+            assert ours.reset_infos[0]["condition_supply_voltage_v"] == pytest.approx(
+                theirs.reset_infos[0]["condition_supply_voltage_v"]
+            )
+
+
+def test_sb3_adapter_over_a_wrapper_without_partial_resets_says_what_to_use_instead():
+    """Gymnasium's NormalizeObservation resets all sub-envs or none (and takes no SAME_STEP
+    env): the adapter's restart of the one sub-env that ended raised the wrapper's bare error
+    at the first such episode end, 100 steps into training; the docs had recommended it."""
+    from gymnasium.wrappers.vector import NormalizeObservation
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    action = np.array([[1.0], [-1.0]], np.float32)  # sub-env 0 overheats alone
+    hot = {"overheat_limit_c": 80.0}
+    venv = SB3VecEnv(NormalizeObservation(native(n=2, **hot)))
+    venv.reset()
+    with pytest.raises(ValueError, match=r"SB3VecEnv: .* put stable_baselines3's VecNormalize on the adapter"):
+        for _ in range(200):
+            venv.step(action)
+    # What the message proposes runs through episodes that end apart.
+    venv = VecNormalize(SB3VecEnv(native(n=2, **hot)))
+    venv.reset()
+    ended = 0
+    for _ in range(200):
+        obs, _, dones, _ = venv.step(action)
+        assert np.isfinite(obs).all() and not dones[1]
+        ended += int(dones[0])
+    assert ended >= 2  # it ended, went on and ended again
+
+
+def test_an_env_made_with_a_model_config_is_made_again_from_its_json_spec():
+    """Gymnasium's EnvSpec.to_json writes a ModelConfig as dataclasses.asdict: made again from
+    that JSON, load_model refused it ("'format' = None")."""
+    from gymnasium.envs.registration import EnvSpec
+
+    model = sma_gym.load_model("standard").with_actuator(**{"driver.supply_voltage_v": 12.0})
+    model = model.with_effect("coulomb_friction", {"force_n": 0.5}, form="stribeck")
+    env = gym.make("sma_gym:SMATracking-v0", model=model)
+    again = gym.make(EnvSpec.from_json(env.spec.to_json()))
+    assert again.unwrapped.settings.model == model
+    assert np.array_equal(env.reset(seed=1)[0], again.reset(seed=1)[0])
+
+
 def test_sb3_get_attr_gives_each_sub_env_its_own_value():
     venv = SB3VecEnv(native("SMARobust-v0", n=3))
     venv.seed(0)

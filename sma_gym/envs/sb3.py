@@ -10,15 +10,19 @@ the first observation of the next episode on the step an episode ends, with the 
 in ``infos[i]["terminal_observation"]``: with ``SAME_STEP`` the vector env already does
 that; with ``NEXT_STEP`` (the default) or ``DISABLED`` the adapter resets the ended
 sub-envs at once through ``reset(options={"reset_mask": ...})``, so Gymnasium vector
-wrappers (``NormalizeObservation``, ...) may sit in between.
+wrappers may sit in between, except those that cannot reset part of the sub-envs and take
+no ``SAME_STEP`` env either (Gymnasium's ``NormalizeObservation``: SB3's ``VecNormalize``
+on top of the adapter normalises instead; the adapter says so at the first episode that
+ends alone).
 
 It also does what SB3's ``Monitor`` does: at the end of an episode ``infos[i]["episode"]``
 holds ``{"r": return, "l": length, "t": seconds since the adapter was made}``, so SB3 logs
 ``rollout/ep_rew_mean`` and ``evaluate_policy`` counts whole episodes without a warning
 (``env_is_wrapped(Monitor)`` is true); no ``VecMonitor`` is needed on top.
-``infos[i]`` carries the env's ``info`` entries of sub-env i as Python scalars (the keys of
-:data:`sma_gym.envs.task.INFO`: ``position_m``, ``reference_m``, ...; of the ended
-episode's last step when it ends) and ``TimeLimit.truncated``.
+``infos[i]`` carries the env's per-sub-env ``info`` entries of sub-env i as Python scalars
+(the keys of :data:`sma_gym.envs.task.INFO`: ``position_m``, ``reference_m``, ...; the robust
+env's ``condition_*``; of the ended episode's last step when it ends) and
+``TimeLimit.truncated``; ``reset_infos[i]`` those of its episode's start, as ``DummyVecEnv``.
 
 The sub-envs share one simulator, so ``indices`` are honoured where that is meaningful
 (``env_method("reset", indices=...)`` resets only those sub-envs; ``get_attr`` of a
@@ -37,7 +41,6 @@ from typing import Any
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
-from sma_gym.envs.task import INFO
 from sma_gym.extras import extra_error
 
 try:
@@ -46,7 +49,31 @@ try:
 except ModuleNotFoundError as err:
     raise extra_error(err, "sma_gym.envs.sb3 (the stable-baselines3 adapter)", "train") from err
 
-_PER_STEP_INFO = tuple(INFO)
+_NOT_PER_ENV = ("final_obs", "final_info", "episode")
+"""Vector info keys that are no sub-env's own entry (Gymnasium's SAME_STEP records, a wrapper's stats)."""
+
+
+def _per_env(info: dict[str, Any], n: int) -> dict[str, list]:
+    """The vector ``info``'s entries with one value per sub-env (not its ``_key`` masks), as
+    lists of Python scalars: one conversion per key, not one numpy scalar per key and sub-env."""
+    return {
+        k: v.tolist()
+        for k, v in info.items()
+        if not k.startswith("_") and k not in _NOT_PER_ENV and isinstance(v, np.ndarray) and v.shape[:1] == (n,)
+    }
+
+
+def _arrays(info: dict[str, Any], final: dict[str, Any], n: int) -> list[tuple[str, np.ndarray]]:
+    """The per-sub-env entries of a SAME_STEP step's ``info`` that its ``final_info`` also has."""
+    return [
+        (k, v)
+        for k, v in info.items()
+        if k in final
+        and not k.startswith("_")
+        and k not in _NOT_PER_ENV
+        and isinstance(v, np.ndarray)
+        and v.shape[:1] == (n,)
+    ]
 
 
 def _same(a: dict, b: dict) -> bool:
@@ -86,7 +113,8 @@ class SB3VecEnv(VecEnv):
         ``set_options`` (both used once, as ``DummyVecEnv`` uses them)."""
         options = list(self._options)
         if all(_same(o, options[0]) for o in options):
-            obs, _ = self.venv.reset(seed=self._seed, options=dict(options[0]) or None)
+            obs, info = self.venv.reset(seed=self._seed, options=dict(options[0]) or None)
+            self._set_reset_infos(info, np.ones(self.num_envs, dtype=bool))
         else:
             # Sub-envs with different options: one masked reset per distinct options dict;
             # the last one returns every sub-env's first observation.
@@ -95,10 +123,11 @@ class SB3VecEnv(VecEnv):
             while todo.any():
                 first = options[int(np.flatnonzero(todo)[0])]
                 group = todo & np.array([_same(o, first) for o in options])
-                obs, _ = self.venv.reset(
+                obs, info = self.venv.reset(
                     seed=[s if g else None for s, g in zip(seeds, group)],
                     options={**first, "reset_mask": group},
                 )
+                self._set_reset_infos(info, group)
                 todo &= ~group
         self._seed = None
         self._reset_options()
@@ -117,17 +146,25 @@ class SB3VecEnv(VecEnv):
         ended = np.flatnonzero(dones)
         if ended.size and self.autoreset_mode == AutoresetMode.SAME_STEP:
             terminal = info["final_obs"]
-            info = {
-                **info,
-                **{k: np.where(dones, v, info[k]) for k, v in info["final_info"].items() if k in _PER_STEP_INFO},
-            }
+            # The next episode's start, where an env gives it apart (its info is the ended one's last step).
+            self._set_reset_infos(info, dones)
+            final = info["final_info"]
+            info = {**info, **{k: np.where(dones, final[k], v) for k, v in _arrays(info, final, self.num_envs)}}
         elif ended.size:
             terminal = obs
             obs = obs.copy()
-            restarted, _ = self.venv.reset(options={"reset_mask": dones})
+            try:
+                restarted, start = self.venv.reset(options={"reset_mask": dones})
+            except ValueError as err:
+                raise ValueError(
+                    f"SB3VecEnv: the vector env refused to reset only the sub-envs that ended ({err}); SB3 needs them "
+                    "restarted on the step they end, so a wrapper that resets all sub-envs or none cannot sit under "
+                    "the adapter: for Gymnasium's NormalizeObservation, put stable_baselines3's VecNormalize on the "
+                    "adapter instead, or make the vector env with autoreset_mode='SameStep' if the wrapper takes it"
+                ) from err
             obs[ended] = restarted[ended]
-        # One conversion per key (tolist), not one numpy scalar per key and sub-env.
-        values = {k: info[k].tolist() for k in _PER_STEP_INFO if k in info}
+            self._set_reset_infos(start, dones)
+        values = _per_env(info, self.num_envs)
         infos: list[dict[str, Any]] = [{k: v[i] for k, v in values.items()} for i in range(self.num_envs)]
         for i in ended:
             infos[i]["terminal_observation"] = terminal[i]
@@ -140,6 +177,11 @@ class SB3VecEnv(VecEnv):
         self._returns[ended] = 0.0
         self._lengths[ended] = 0
         return obs, rewards.astype(np.float32), dones, infos
+
+    def _set_reset_infos(self, info: dict[str, Any], which: np.ndarray) -> None:
+        values = _per_env(info, self.num_envs)
+        for i in np.flatnonzero(which):
+            self.reset_infos[i] = {k: v[i] for k, v in values.items()}
 
     def seed(self, seed: int | None = None):
         self._seed = seed
