@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -142,6 +142,10 @@ def load_model(spec: ModelSpec = None) -> ModelConfig:
     if isinstance(spec, ActuatorParams):
         return ModelConfig(actuator=spec)
     if isinstance(spec, Mapping):
+        if "format" not in spec and set(spec) == _ACTUATOR_KEYS:
+            # ``dataclasses.asdict`` of ActuatorParams, as Gymnasium's EnvSpec.to_json writes
+            # an env's ``model=ActuatorParams(...)``.
+            return ModelConfig(actuator=ActuatorParams.from_dict(spec))
         return ModelConfig.from_dict(_from_dataclass_dict(spec))
     if isinstance(spec, os.PathLike):
         return ModelConfig.load(os.fspath(spec))  # a Path means a file (it read the preset of its name)
@@ -157,6 +161,9 @@ def load_model(spec: ModelSpec = None) -> ModelConfig:
             f"model = {text!r}: expected a preset name ({', '.join(model_names())}) or a path to a model JSON file"
         )
     raise ValueError(f"model = {spec!r}: expected a preset name, a path, ModelConfig or ActuatorParams")
+
+
+_ACTUATOR_KEYS = {f.name for f in fields(ActuatorParams)}
 
 
 def _from_dataclass_dict(spec: Mapping[str, Any]) -> Mapping[str, Any]:

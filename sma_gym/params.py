@@ -543,6 +543,12 @@ class Driver:
     """t_settle [s] = 50e-6: voltage and current need about 50 us after switch-on before
     V/I is a valid resistance reading (§4.1, fig. 4.1). Readings are taken then."""
 
+    @property
+    def min_readable_duty(self) -> float:
+        """D_min [-] = t_settle * f_PWM: the smallest duty whose pulse lasts the settling time,
+        the shortest that gives a V/I reading (§4.1; 0.025 at the standard 500 Hz)."""
+        return self.settling_time_s * self.pwm_frequency_hz
+
     end_of_travel_m: float = 9.5e-3
     """x_eot [m] = 9.5e-3: the driver cuts the power when the actuator reaches its end of
     travel (§3.1), which is why the stroke is about 9.5 mm (Table 3.1) and not eps0*l0.

@@ -1062,7 +1062,7 @@ def test_locked_folder_removes_only_the_empty_folders_it_created_on_failure(tmp_
     [
         (["--env-kwargs", "control_period_s:"], "control_period_s = ''"),
         (["--env-kwargs", "foo:1"], "unknown env kwargs ['foo']"),
-        (["--hyperparams", "gamma:2"], "gamma = 2: expected a number in (0, 1]"),
+        (["--hyperparams", "gamma:2"], "gamma = 2: expected a number in [0, 1]"),
         (["--hyperparams", "learning_rate:-1"], "learning_rate = -1"),
         (["--timesteps", "-5"], "--quick with --timesteps -5"),
         (["--hyperparams", "ent_coef:bad"], "ent_coef = 'bad': expected a number >= 0, 'auto'"),
@@ -1218,9 +1218,9 @@ def _here(key: str) -> str:
 def test_algorithm_fractions_have_their_own_lower_ends():
     from sma_gym_agents.training.keywords import check_model_kwargs
 
-    check_model_kwargs({"gamma": 0.99, "tau": 0.02}, "sac", _here)
+    check_model_kwargs({"gamma": 0.0, "tau": 0.02}, "sac", _here)  # gamma 0: a myopic agent
     check_model_kwargs({"gamma": 0.99, "gae_lambda": 0.0}, "ppo", _here)  # lambda 0: one-step TD
-    bad = (("gamma", 0.0), ("tau", 0.0), ("gae_lambda", 1.5), ("gamma", float("nan")), ("tau", True))
+    bad = (("gamma", -0.1), ("tau", 0.0), ("gae_lambda", 1.5), ("gamma", float("nan")), ("tau", True))
     for key, value in bad:
         with pytest.raises(ValueError, match=rf"here: {key} = "):
             check_model_kwargs({key: value}, "ppo" if key == "gae_lambda" else "sac", _here)
@@ -2000,12 +2000,16 @@ def test_settings_no_episode_can_run_with_are_refused_at_make():
     import sma_gym
 
     for env_id in ("SMATracking-v0", "SMAMultiplexed-v0", "SMARobust-v0"):
-        with pytest.raises(ValueError, match=r"overheat_limit_c = 50.0: the wire of .* starts to contract at 61.1"):
+        with pytest.raises(
+            ValueError, match=r"overheat_limit_c = 50.0: the wire of .* starts to contract at 61.1 degC"
+        ):
             gym.make(f"sma_gym:{env_id}", overheat_limit_c=50.0)
     gym.make("sma_gym:SMATracking-v0", overheat_limit_c=70.0)
     fast = sma_gym.load_model("forced-convection").with_actuator(**{"driver.pwm_frequency_hz": 1e5})
-    with pytest.raises(ValueError, match=r"pwm_frequency_hz = 100000.0 .* expected pwm_frequency_hz below 1000 Hz"):
+    with pytest.raises(ValueError, match=r"pwm_frequency_hz = 100000.0 .* expected pwm_frequency_hz at most 1000 Hz"):
         gym.make("sma_gym:SMASelfSensing-v0", model=fast)
+    edge = sma_gym.load_model("forced-convection").with_actuator(**{"driver.pwm_frequency_hz": 1000.0})
+    gym.make("sma_gym:SMASelfSensing-v0", model=edge)  # 50 us pulses: the kernel reads them
     gym.make("sma_gym:SMATracking-v0", model=fast)  # the position sensor needs no reading of R
 
 

@@ -3,7 +3,6 @@ the run configuration (:mod:`sma_gym_agents.training`) and the card (:class:`sma
 
 import json
 import math
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -126,16 +125,29 @@ def test_ctrl_c_ends_train_py_with_a_line_not_a_traceback_and_keeps_the_checkpoi
     monkeypatch.setattr(run_module, "train_and_compare", before_any_file)
     assert main(["--quick", "--no-progress", "--out", str(tmp_path / "never")]) == 130
     assert capsys.readouterr().err.strip() == "train.py: interrupted"
-    # Into a folder that exists (a user's, or an earlier run's that --overwrite put back):
-    # it promised "the checkpoints written so far" where this run had written none.
+    # Stopped in training before its first checkpoint, into a folder that exists (an earlier
+    # run's, which --overwrite puts back): it promised "the checkpoints written so far".
+    import sma_gym_agents.training.learn as learn_module
+
+    monkeypatch.undo()
+    monkeypatch.setattr(learn_module, "train", lambda run, out, **kwargs: before_any_file(run, out))
     earlier = tmp_path / "earlier"
     (earlier / "checkpoints").mkdir(parents=True)
     for name in ("results.md", "best_model.zip", "checkpoints/model_500_steps.zip"):
         (earlier / name).write_text("the earlier run's")
-        os.utime(earlier / name, (1e9, 1e9))
     assert main(["--quick", "--no-progress", "--overwrite", "--out", str(earlier)]) == 130
     err = capsys.readouterr().err
     assert "before the first checkpoint; nothing of this run is kept" in err and "keeps the checkpoints" not in err
+    assert (earlier / "checkpoints" / "model_500_steps.zip").read_text() == "the earlier run's"  # put back
+
+    def after_a_checkpoint(run, out, **kwargs):
+        (out / "checkpoints").mkdir()
+        (out / "checkpoints" / "model_500_steps.zip").write_bytes(b"PK")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(learn_module, "train", after_a_checkpoint)
+    assert main(["--quick", "--no-progress", "--out", str(tmp_path / "later")]) == 130
+    assert "keeps the checkpoints written so far" in capsys.readouterr().err
 
 
 def test_progress_lines_report_steps_rate_and_time_left():
@@ -216,6 +228,8 @@ def test_the_keywords_forms_are_read_as_sb3_reads_them():
             ({"train_freq": [1, "episode"]}, {"train_freq": (1, "episode")}),
             ({"train_freq": 4.0}, {"train_freq": 4}),
             ({"target_entropy": -2.0}, None),
+            ({"target_entropy": "-2", "ent_coef": "0.1"}, {"target_entropy": -2.0, "ent_coef": 0.1}),  # SB3: float()
+            ({"gamma": 0.0}, None),  # a myopic agent
             ({"sde_sample_freq": 0}, None),
             ({"policy_kwargs": {"net_arch": {"pi": [64.0], "qf": [64, 64]}, "n_critics": 3}}, None),
             ({"policy_kwargs": {"net_arch": None, "clip_mean": 0.0}}, None),  # SB3's defaults; 0: no clipping
@@ -224,6 +238,7 @@ def test_the_keywords_forms_are_read_as_sb3_reads_them():
             ({"ent_coef": 0.0, "target_kl": None, "clip_range_vf": 0.2, "n_epochs": 10.0}, None),
             ({"batch_size": 1, "normalize_advantage": False}, None),
             ({"policy_kwargs": {"net_arch": {"pi": [64], "vf": [64]}, "log_std_init": -1, "ortho_init": False}}, None),
+            ({"policy_kwargs": {"net_arch": {"vf": [64]}}}, None),  # PPO: the actor without hidden layers
         ],
     }
     for algo, cases in good.items():
@@ -249,6 +264,7 @@ def test_the_keywords_forms_are_read_as_sb3_reads_them():
             ({"action_noise": None}, "action_noise takes an object"),
             ({"learning_rate": "3e-4"}, "YAML 1.1 reads 3e-4 as text: write it with a dot and a signed exponent"),
             ({"policy_kwargs": {"net_arch": {"pi": [64], "vf": [64]}}}, "dict(pi=[...], qf=[...])"),
+            ({"policy_kwargs": {"net_arch": {"pi": [64]}}}, "dict(pi=[...], qf=[...])"),  # SAC needs both
             ({"policy_kwargs": {"use_sde": True}}, "use_sde is set by the algorithm"),
             ({"policy_kwargs": {"ortho_init": False}}, "'ortho_init' is no literal keyword of SAC's MlpPolicy"),
         ],
@@ -324,7 +340,7 @@ def test_hyperparams_option_overrides_the_file_as_rl_zoos_does():
     assert {k: v for k, v in run.model_kwargs.items() if k not in ("gamma", "policy_kwargs", "target_entropy")} == {
         k: v for k, v in base.model_kwargs.items() if k not in ("gamma", "policy_kwargs")
     }
-    with pytest.raises(ValueError, match="--hyperparams gama: expected one of"):
+    with pytest.raises(ValueError, match="--hyperparams gama: 'gama' is neither a run key"):
         RunConfig.from_args(parse_args(["--hyperparams", "gama:0.9"]))
     with pytest.raises(ValueError, match="--hyperparams clip_range"):  # PPO's, not SAC's
         RunConfig.from_args(parse_args(["--hyperparams", "clip_range:0.1"]))

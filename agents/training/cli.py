@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import datetime
 import sys
-import time
 from pathlib import Path
 
 from sma_gym._io import sigterm_as_interrupt, stopped
@@ -21,23 +20,11 @@ def default_out(run: RunConfig) -> Path:
     return ROOT / "runs" / f"{run.env_id}-{run.algo}-{stamp}"
 
 
-def _kept_anything(out: Path, since: float) -> bool:
-    """A stopped run wrote a model or a checkpoint into ``out`` at or after ``since`` (an
-    earlier run's, put back by ``--overwrite``, keeps its older times)."""
-    files = [out / "best_model.zip", out / "final_model.zip"]
-    if (out / "checkpoints").is_dir():
-        files += list((out / "checkpoints").iterdir())
-    return any(f.is_file() and f.stat().st_mtime >= since for f in files)
-
-
 def main(argv: list[str] | None = None) -> int:
     """Run ``train.py`` with ``argv``; 0 on success, 2 (message on stderr) on a bad option,
     1 if seeds of a ``--seeds`` sweep failed, 130 on Ctrl-C (a line on stderr, no traceback)."""
     out: Path | None = None
     sweep = False
-    # Wall clock, as file times (which the kernel's coarse clock may put a few ms behind):
-    # what a stopped run wrote is newer; an earlier run put back by --overwrite is older.
-    started = time.time() - 1.0
     try:
         args = parse_args(argv)  # --help works without the extra
         require(*TRAIN_NEEDS, purpose="train.py", extra="train")
@@ -68,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         how, code = stopped(err)
         if out is None or not out.exists():
             print(f"train.py: {how}", file=sys.stderr)
-        elif not sweep and not _kept_anything(out, started):
+        elif not sweep and getattr(err, "run_kept_nothing", False):
             # Stopped before its first checkpoint: the run removed what it had begun (and
             # put back an earlier run it had set aside), so promise no checkpoints.
             print(f"train.py: {how} before the first checkpoint; nothing of this run is kept in {out}", file=sys.stderr)

@@ -29,9 +29,6 @@ from sma_gym_agents.card import (
 from sma_gym_agents.controllers import ALL_SPECS, spec_by_label
 from sma_gym_agents.history import HISTORIES, HistoryFeatures
 from sma_gym_agents.training.keywords import (
-    KEYWORDS,
-    NOT_FROM_A_FILE,
-    OWN_KEYWORDS,
     RUN_KEYS,
     ZOO_ONLY_KEYS,
     check_model_kwargs,
@@ -219,21 +216,14 @@ _OWN_OPTIONS = {"vec_env_wrapper": "--history and --residual", "env_kwargs": "--
 keywords that train.py sets are :data:`~sma_gym_agents.training.keywords.OWN_KEYWORDS`)."""
 
 
-def hyperparams_option(items: list[str] | None, algo: str) -> dict[str, Any]:
+def hyperparams_option(items: list[str] | None) -> dict[str, Any]:
     """``--hyperparams key:value ...`` (RL Zoo's option): entries of the file's table to replace
-    or add; ``ValueError`` naming a key that is neither a run key nor a keyword of the algorithm."""
+    or add; ``ValueError`` naming a key another option sets. The algorithm's keywords are
+    checked with the file's (:func:`~sma_gym_agents.training.keywords.check_model_kwargs`)."""
     out = key_value_option(items, "--hyperparams", "learning_rate:1e-3 gamma:0.999")
-    if not out:
-        return out
-    accepted = {*KEYWORDS[algo], *OWN_KEYWORDS, *NOT_FROM_A_FILE[algo]}  # the last two named by check_model_kwargs
     for key in out:
         if key in _OWN_OPTIONS:
             raise ValueError(f"--hyperparams {key}: set it with {_OWN_OPTIONS[key]}")
-        if key not in accepted and key not in RUN_KEYS:
-            raise ValueError(
-                f"--hyperparams {key}: expected one of {sorted(set(RUN_KEYS) - set(_OWN_OPTIONS))} or a keyword "
-                f"of stable-baselines3's {algo.upper()}"
-            )
     return out
 
 
@@ -368,7 +358,7 @@ class RunConfig:
         if args.env in NOT_FOR_TRAIN_PY:
             raise ValueError(f"--env {args.env}: {NOT_FOR_TRAIN_PY[args.env]}")
         algo = args.algo or DEFAULT_ALGO
-        overrides = hyperparams_option(args.hyperparams, algo)
+        overrides = hyperparams_option(args.hyperparams)
         table = {**load_hyperparams(args.env, algo), **overrides}
         entry = f"{hyperparams_path(algo).name} [{args.env}]"
 

@@ -95,8 +95,19 @@ def _as_train_freq(value: Any) -> Any:
     return (int(value[0]), value[1]) if isinstance(value, (tuple, list)) else int(value)
 
 
+def _as_number(value: Any) -> Any:
+    """A number given as text (a quoted "0.1", which SB3 passes to ``float``) as the number;
+    anything else as it is."""
+    if isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    return value
+
+
 def _sac_ent_coef(value: Any) -> bool:
-    if isinstance(value, str):  # "auto" or "auto_<initial value>", learnt either way
+    if isinstance(value, str) and value.startswith("auto"):  # "auto" or "auto_<initial value>", learnt either way
         head, sep, initial = value.partition("_")
         if head != "auto":
             return False
@@ -106,13 +117,17 @@ def _sac_ent_coef(value: Any) -> bool:
             return _number(0.0).test(float(initial))
         except ValueError:
             return False
-    return _number(0.0, strict=False).test(value)  # 0: no entropy bonus (an ablation SB3 trains)
+    return _number(0.0, strict=False).test(_as_number(value))  # 0: no entropy bonus (an ablation SB3 trains)
+
+
+def _fixed_or_auto(value: Any) -> Any:
+    return value if isinstance(value, str) and value.startswith("auto") else _as_number(value)
 
 
 _COMMON: dict[str, Check] = {
     "policy": POLICY,
     "learning_rate": _or_schedule(_number(0.0)),
-    "gamma": _number(0.0, high=1.0),
+    "gamma": _number(0.0, strict=False, high=1.0),  # 0: a myopic agent, which SB3 trains
     "use_sde": FLAG,
     "sde_sample_freq": Check(
         lambda v: is_count(v, -1), "an integer >= -1 (-1 or 0: new noise only at the start of a rollout)", int
@@ -137,9 +152,9 @@ KEYWORDS: dict[str, dict[str, Check]] = {
         # SB3 refuses True with the replay buffer's timeout handling, which the envs' time limits need.
         "optimize_memory_usage": Check(lambda v: v is False, "false (SB3 refuses true with time-limited episodes)"),
         "n_steps": _count(1),
-        "ent_coef": Check(_sac_ent_coef, "a number >= 0, 'auto' or 'auto_<initial number > 0>'"),
+        "ent_coef": Check(_sac_ent_coef, "a number >= 0, 'auto' or 'auto_<initial number > 0>'", _fixed_or_auto),
         "target_update_interval": _count(1),
-        "target_entropy": Check(lambda v: v == "auto" or _real(v), "'auto' or a number"),
+        "target_entropy": Check(lambda v: v == "auto" or _real(_as_number(v)), "'auto' or a number", _fixed_or_auto),
         "use_sde_at_warmup": FLAG,
     },
     "ppo": {
@@ -198,7 +213,8 @@ POLICY_KEYWORDS: dict[str, dict[str, Check]] = {
 like, cannot be written as literals); ``net_arch`` is checked apart."""
 
 NET_HEADS = {"sac": ("pi", "qf"), "ppo": ("pi", "vf")}
-"""The networks ``net_arch`` may size apart, as a dict: the actor and the critic."""
+"""The networks ``net_arch`` may size apart, as a dict: the actor and the critic (SAC needs
+both; PPO takes either, the other then without hidden layers)."""
 
 POLICY_SET_BY_ALGORITHM = ("observation_space", "action_space", "lr_schedule", "use_sde")
 """Policy keywords the algorithm passes itself (``use_sde`` is the algorithm's keyword)."""
@@ -265,7 +281,11 @@ def check_policy_kwargs(policy_kwargs: Mapping[str, Any], algo: str, where: str)
         if key == "net_arch":
             if value is None:  # SB3's default sizes
                 out[key] = value
-            elif isinstance(value, Mapping) and set(value) <= set(heads) and all(_NET.test(v) for v in value.values()):
+            elif (
+                isinstance(value, Mapping)
+                and (set(value) == set(heads) if algo == "sac" else set(value) <= set(heads))
+                and all(_NET.test(v) for v in value.values())
+            ):
                 out[key] = {head: _NET.convert(v) for head, v in value.items()}
             elif _NET.test(value):
                 out[key] = _NET.convert(value)

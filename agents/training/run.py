@@ -45,13 +45,14 @@ def train_and_compare(
         started = time.perf_counter()
         try:
             info = train(run, out, progress=progress)
-        except BaseException:
+        except BaseException as err:
             unstarted = _forget_unstarted(out)
             if previous is not None:
                 if unstarted:
                     put_back_outputs(previous, out)
                 else:
                     shutil.rmtree(previous)
+            err.run_kept_nothing = unstarted  # what an interrupt's message may promise (cli.main)
             raise
         if previous is not None:
             shutil.rmtree(previous)

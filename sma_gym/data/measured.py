@@ -223,20 +223,20 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
                         f"{reader.line_num}; expected one row per line (a stray '\"'?)"
                     ]
                 )
-            if any("\n" in field or "\r" in field for field in row):
-                # The same on the last line: the quote runs on to the end of the file, taking
-                # the line's end (and any fields after it) into one field.
-                raise MeasuredDataError(
-                    [
-                        f"{where}:{line}: a double quote opened on this line runs on to the end of the file; "
-                        "expected one row per line (a stray '\"'?)"
-                    ]
-                )
             rows.append(row)
     except csv.Error as err:
         raise MeasuredDataError(
             [f"{where}:{len(rows) + 1}: not readable as CSV ({err}; a stray '\"'?); expected one row per line"]
         ) from None
+    if rows and any("\n" in field or "\r" in field for field in rows[-1]):
+        # The same on the last line: the quote runs on to the end of the file, taking the
+        # line's end (and any fields after it) into one field; line_num cannot tell.
+        raise MeasuredDataError(
+            [
+                f"{where}:{len(rows)}: a double quote opened on this line runs on to the end of the file; "
+                "expected one row per line (a stray '\"'?)"
+            ]
+        )
     while rows and not any(field.strip() for field in rows[-1]):
         rows.pop()  # blank lines at the end (editors and spreadsheets add them)
     if not rows:

@@ -190,7 +190,8 @@ def generate(spec: SynthSpec) -> tuple[MeasuredTrace, dict[str, Any]]:
     p = truth.actuator
     duty_min = 0.0
     if spec.electrical:
-        # Long enough pulses for a V/I reading, with margin (§4.1).
+        # Long enough pulses for a V/I reading, with margin (§4.1): 1.2 x Driver.min_readable_duty,
+        # multiplied in this order so that every recorded benchmark's data stay bit for bit.
         duty_min = 1.2 * p.driver.settling_time_s * p.driver.pwm_frequency_hz
     n = ref.size
     every = max(1, int(round(spec.sample_period_s / CONTROL_PERIOD_S)))

@@ -27,6 +27,21 @@ from sma_gym.params import FORCED_CONVECTION_FACTOR
 
 CONVECTIONS = ("natural", "forced")
 
+SPREAD_HALF_WIDTHS = {"h_scale": 0.15, "shift": 3.0, "eps_scale": 0.05, "preload_scale": 0.2, "rho_scale": 0.05}
+"""Half-widths of the parameter spread at ``spread`` 1, in the order they are drawn: the
+convection's log-scale, the transformation shift [K], and the relative spreads of the
+recoverable strain, the spring preload and the resistivity (the module docstring's +-15 %,
++-3 K, +-5 %, +-20 %, +-5 %)."""
+
+
+def _spread_terms(draws: dict[str, float]) -> dict[str, float]:
+    """The drawn (or corner) offsets as the factors and shift :meth:`Conditions._build` takes."""
+    return {
+        "h_scale": float(np.exp(draws["h_scale"])),
+        "shift": draws["shift"],
+        **{k: 1.0 + draws[k] for k in ("eps_scale", "preload_scale", "rho_scale")},
+    }
+
 
 def _as_range(name: str, value: Any, lower: float, upper: float, unit: str) -> tuple[float, float]:
     if isinstance(value, np.ndarray) and value.ndim == 1:
@@ -96,34 +111,24 @@ class Conditions:
         # the convection shifted every later draw and the same seed gave another wire.
         convection = self.convection[int(rng.integers(len(CONVECTIONS))) % len(self.convection)]
         diameter = float(u(*self.wire_diameter_m))
-        s = self.spread
-        return self._build(
-            base,
-            voltage,
-            convection,
-            diameter,
-            h_scale=float(np.exp(u(-0.15, 0.15) * s)),
-            shift=float(u(-3.0, 3.0) * s),
-            eps_scale=float(1.0 + u(-0.05, 0.05) * s),
-            preload_scale=float(1.0 + u(-0.2, 0.2) * s),
-            rho_scale=float(1.0 + u(-0.05, 0.05) * s),
-        )
+        draws = {name: float(u(-half, half)) * self.spread for name, half in SPREAD_HALF_WIDTHS.items()}
+        return self._build(base, voltage, convection, diameter, **_spread_terms(draws))
 
     def corners(self) -> list[dict[str, Any]]:
         """Every combination of the ends of the ranges (each condition at its low or high end,
         each convection given; a fixed value once): where a draw is most extreme."""
-        s = self.spread
-        ends = {
+        ends: dict[str, list] = {
             "voltage": sorted(set(self.supply_voltage_v)),
             "convection": list(self.convection),
             "diameter": sorted(set(self.wire_diameter_m)),
-            "h_scale": sorted({float(np.exp(-0.15 * s)), float(np.exp(0.15 * s))}),
-            "shift": sorted({-3.0 * s, 3.0 * s}),
-            "eps_scale": sorted({1.0 - 0.05 * s, 1.0 + 0.05 * s}),
-            "preload_scale": sorted({1.0 - 0.2 * s, 1.0 + 0.2 * s}),
-            "rho_scale": sorted({1.0 - 0.05 * s, 1.0 + 0.05 * s}),
+            **{name: sorted({-half * self.spread, half * self.spread}) for name, half in SPREAD_HALF_WIDTHS.items()},
         }
-        return [dict(zip(ends, values, strict=True)) for values in itertools.product(*ends.values())]
+        corners = []
+        for values in itertools.product(*ends.values()):
+            corner = dict(zip(ends, values, strict=True))
+            fixed = {k: corner.pop(k) for k in ("voltage", "convection", "diameter")}
+            corners.append({**fixed, **_spread_terms(corner)})
+        return corners
 
     def check(self, base: ModelConfig, check_model: Callable[[ModelConfig], None]) -> None:
         """Refuse ranges that can draw a wire ``base`` cannot be (a preload past the thinnest
@@ -145,8 +150,8 @@ class Conditions:
                 raise ValueError(
                     f"supply_voltage_v, convection, wire_diameter_m, spread = {self.supply_voltage_v}, "
                     f"{self.convection}, {self.wire_diameter_m}, {self.spread:g}: the condition ({shown}) gives a wire "
-                    f"the episode cannot run on ({err}); expected ranges whose every draw can (narrow them, or "
-                    "lower the spread)"
+                    f"the episode cannot run on ({err}); expected ranges whose every draw can (narrow them, lower "
+                    "the spread, or change what the error names)"
                 ) from None
 
     @staticmethod

@@ -155,14 +155,19 @@ MODEL_CHANGE = """
       when it terminated there too, as `TimeLimit` does (they reported it terminated
       only), and `render()` without frames warns and returns one `None` per sub-env, as
       `SyncVectorEnv` does. A ramp reference shorter than 1 us and a hand-built
-      `Reference` that fails a dict's checks are refused. Refused at make, where before no
-      episode could run: an `overheat_limit_c` at or below the temperature where the wire
-      starts to contract (every step ended the episode), and, on `SMASelfSensing-v0`, a model
-      whose PWM pulses at the smallest duty are no longer than the settling time (its
-      resistance was never read). `SMARobust-v0` checks its condition ranges at their
-      corners at make: ranges that could draw a wire it cannot run (below the surroundings'
-      temperature, a reference beyond its stroke) failed a reset at random, and every reset
-      after it. Integer kwargs take numpy integers and refuse what `int()` would truncate.
+      `Reference` that fails a dict's checks are refused.
+    * main (unreleased, 2026-12-07, later): refused at make, where before no episode could
+      run: an `overheat_limit_c` at or below the temperature where the wire starts to
+      contract (every episode ended before the wire moved; limits of 40-61 degC on the
+      standard wire, which tests used to overheat it quickly, are refused now), and, on
+      `SMASelfSensing-v0`, a model whose PWM pulses at the smallest duty are shorter than the
+      settling time (`Driver.min_readable_duty` above 0.05: its resistance was not read at
+      every duty). `SMARobust-v0` checks its condition ranges at their corners at make:
+      ranges that could draw a wire it cannot run (below the surroundings' temperature, a
+      reference beyond its stroke) failed a reset at random, and every reset after it.
+      Integer kwargs (`n_actuators`, `num_envs`, `max_episode_steps`) refuse what `int()`
+      truncated (a 0-d array 2.9 gave 2). An env made with `model=ModelConfig(...)` or
+      `ActuatorParams(...)` is made again from its JSON spec.
     """
 
 ROBUST_MODEL_CHECK = """

@@ -10,10 +10,9 @@ the first observation of the next episode on the step an episode ends, with the 
 in ``infos[i]["terminal_observation"]``: with ``SAME_STEP`` the vector env already does
 that; with ``NEXT_STEP`` (the default) or ``DISABLED`` the adapter resets the ended
 sub-envs at once through ``reset(options={"reset_mask": ...})``, so Gymnasium vector
-wrappers may sit in between, except those that cannot reset part of the sub-envs and take
-no ``SAME_STEP`` env either (Gymnasium's ``NormalizeObservation``: SB3's ``VecNormalize``
-on top of the adapter normalises instead; the adapter says so at the first episode that
-ends alone).
+wrappers may sit in between, except ``NormalizeObservation``, which resets all sub-envs or
+none and takes no ``SAME_STEP`` env (refused when the adapter is made: SB3's
+``VecNormalize`` on top of the adapter normalises instead).
 
 It also does what SB3's ``Monitor`` does: at the end of an episode ``infos[i]["episode"]``
 holds ``{"r": return, "l": length, "t": seconds since the adapter was made}``, so SB3 logs
@@ -40,6 +39,7 @@ from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode
+from gymnasium.wrappers.vector import NormalizeObservation
 
 from sma_gym.extras import extra_error
 
@@ -53,27 +53,21 @@ _NOT_PER_ENV = ("final_obs", "final_info", "episode")
 """Vector info keys that are no sub-env's own entry (Gymnasium's SAME_STEP records, a wrapper's stats)."""
 
 
-def _per_env(info: dict[str, Any], n: int) -> dict[str, list]:
-    """The vector ``info``'s entries with one value per sub-env (not its ``_key`` masks), as
-    lists of Python scalars: one conversion per key, not one numpy scalar per key and sub-env."""
-    return {
-        k: v.tolist()
-        for k, v in info.items()
-        if not k.startswith("_") and k not in _NOT_PER_ENV and isinstance(v, np.ndarray) and v.shape[:1] == (n,)
-    }
+def _is_per_env(key: str, value: Any, n: int) -> bool:
+    """Whether a vector ``info`` entry is one value per sub-env (not a ``_key`` mask, not
+    Gymnasium's SAME_STEP records or a wrapper's stats)."""
+    return (
+        not key.startswith("_")
+        and key not in _NOT_PER_ENV
+        and isinstance(value, np.ndarray)
+        and value.shape[:1] == (n,)
+    )
 
 
-def _arrays(info: dict[str, Any], final: dict[str, Any], n: int) -> list[tuple[str, np.ndarray]]:
-    """The per-sub-env entries of a SAME_STEP step's ``info`` that its ``final_info`` also has."""
-    return [
-        (k, v)
-        for k, v in info.items()
-        if k in final
-        and not k.startswith("_")
-        and k not in _NOT_PER_ENV
-        and isinstance(v, np.ndarray)
-        and v.shape[:1] == (n,)
-    ]
+def _per_env(info: dict[str, Any], n: int, which: Any = slice(None)) -> dict[str, list]:
+    """The per-sub-env entries of ``info`` for the sub-envs ``which`` (all by default), as lists
+    of Python scalars: one conversion per key, not one numpy scalar per key and sub-env."""
+    return {k: v[which].tolist() for k, v in info.items() if _is_per_env(k, v, n)}
 
 
 def _same(a: dict, b: dict) -> bool:
@@ -99,6 +93,17 @@ class SB3VecEnv(VecEnv):
                 f"vector env metadata['autoreset_mode'] = {mode!r}: expected an AutoresetMode "
                 "(use gymnasium.make_vec(..., vectorization_mode='vector_entry_point') on an sma_gym id)"
             )
+        layer = vector_env
+        while layer is not None:
+            if isinstance(layer, NormalizeObservation):
+                # It resets all sub-envs or none and takes no SAME_STEP env, while SB3 needs an
+                # ended sub-env restarted on the step it ends: it failed there, 100 steps in.
+                raise ValueError(
+                    "SB3VecEnv over Gymnasium's NormalizeObservation: it cannot restart one sub-env on the step it "
+                    "ends, as SB3 needs; expected stable_baselines3's VecNormalize on the adapter instead "
+                    "(VecNormalize(SB3VecEnv(vector_env)))"
+                )
+            layer = getattr(layer, "env", None)
         self.venv = vector_env
         self.autoreset_mode = mode
         super().__init__(vector_env.num_envs, vector_env.single_observation_space, vector_env.single_action_space)
@@ -149,19 +154,18 @@ class SB3VecEnv(VecEnv):
             # The next episode's start, where an env gives it apart (its info is the ended one's last step).
             self._set_reset_infos(info, dones)
             final = info["final_info"]
-            info = {**info, **{k: np.where(dones, final[k], v) for k, v in _arrays(info, final, self.num_envs)}}
+            info = {
+                **info,
+                **{
+                    k: np.where(dones.reshape((-1,) + (1,) * (v.ndim - 1)), final[k], v)
+                    for k, v in info.items()
+                    if k in final and _is_per_env(k, v, self.num_envs)
+                },
+            }
         elif ended.size:
             terminal = obs
             obs = obs.copy()
-            try:
-                restarted, start = self.venv.reset(options={"reset_mask": dones})
-            except ValueError as err:
-                raise ValueError(
-                    f"SB3VecEnv: the vector env refused to reset only the sub-envs that ended ({err}); SB3 needs them "
-                    "restarted on the step they end, so a wrapper that resets all sub-envs or none cannot sit under "
-                    "the adapter: for Gymnasium's NormalizeObservation, put stable_baselines3's VecNormalize on the "
-                    "adapter instead, or make the vector env with autoreset_mode='SameStep' if the wrapper takes it"
-                ) from err
+            restarted, start = self.venv.reset(options={"reset_mask": dones})
             obs[ended] = restarted[ended]
             self._set_reset_infos(start, dones)
         values = _per_env(info, self.num_envs)
@@ -179,9 +183,10 @@ class SB3VecEnv(VecEnv):
         return obs, rewards.astype(np.float32), dones, infos
 
     def _set_reset_infos(self, info: dict[str, Any], which: np.ndarray) -> None:
-        values = _per_env(info, self.num_envs)
-        for i in np.flatnonzero(which):
-            self.reset_infos[i] = {k: v[i] for k, v in values.items()}
+        chosen = np.flatnonzero(which)
+        values = _per_env(info, self.num_envs, chosen)
+        for j, i in enumerate(chosen):
+            self.reset_infos[i] = {k: v[j] for k, v in values.items()}
 
     def seed(self, seed: int | None = None):
         self._seed = seed

@@ -8,10 +8,10 @@ that the native vector env (:mod:`sma_gym.envs.vector`) uses too.
 
 from __future__ import annotations
 
-import functools
 import inspect
+import json
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -205,12 +205,19 @@ class Settings:
         # (after the model, so that what no condition causes is named plainly).
         require_usable(m, variant, names, settings.overheat_limit_c)
         if settings.conditions is not None:
-            # 0.1 s for the 256 corners of the default ranges: once per configuration.
-            frozen = tuple(tuple(sorted(n.items())) if isinstance(n, dict) else n for n in names)
-            try:
-                _check_corners(settings.conditions, m, variant, frozen, settings.overheat_limit_c)
-            except TypeError:  # a reference dict's value that cannot be hashed: checked uncached
-                _check_corners.__wrapped__(settings.conditions, m, variant, frozen, settings.overheat_limit_c)
+            # 30-50 ms for the 256 corners of the default ranges: once per configuration.
+            key = json.dumps(
+                [m.to_dict(), names, asdict(settings.conditions), variant.name, settings.overheat_limit_c],
+                sort_keys=True,
+                default=repr,
+            )
+            if key not in _USABLE_CONDITIONS:
+                settings.conditions.check(
+                    m, lambda drawn: require_usable(drawn, variant, names, settings.overheat_limit_c)
+                )
+                _USABLE_CONDITIONS[key] = None
+                if len(_USABLE_CONDITIONS) > 256:
+                    del _USABLE_CONDITIONS[next(iter(_USABLE_CONDITIONS))]
         return settings
 
     def task_state(self, n: int, observation: int) -> task.TaskState:
@@ -277,28 +284,22 @@ def require_usable(model: ModelConfig, variant: Variant, reference: Sequence, ov
     if overheat_limit_c <= start_c:
         raise ValueError(
             f"overheat_limit_c = {overheat_limit_c!r}: the wire of {a.name!r} starts to contract at "
-            f"{start_c:.1f} degC (ActuatorParams.highest_rest_temperature_c), so every step would end its episode "
-            "before it moved; expected a limit above it"
+            f"{start_c:.1f} degC (ActuatorParams.highest_rest_temperature_c), so every episode would end before the "
+            "wire moved; expected a limit above it"
         )
-    if variant.observation == task.OBS_SELF_SENSING:
-        pulse_s = variant.duty_range.low / a.driver.pwm_frequency_hz
-        if pulse_s <= a.driver.settling_time_s:
-            raise ValueError(
-                f"model {a.name!r}: Driver.pwm_frequency_hz = {a.driver.pwm_frequency_hz!r} with the env's smallest "
-                f"duty {variant.duty_range.low:g} gives {pulse_s * 1e6:.3g} us pulses, no longer than "
-                f"Driver.settling_time_s = {a.driver.settling_time_s!r}: the resistance could never be read; "
-                f"expected pwm_frequency_hz below {variant.duty_range.low / a.driver.settling_time_s:g} Hz"
-            )
+    if variant.observation == task.OBS_SELF_SENSING and variant.duty_range.low < a.driver.min_readable_duty:
+        raise ValueError(
+            f"model {a.name!r}: Driver.pwm_frequency_hz = {a.driver.pwm_frequency_hz!r} and settling_time_s = "
+            f"{a.driver.settling_time_s!r} need a duty of {a.driver.min_readable_duty:.3g} for a V/I reading "
+            f"(Driver.min_readable_duty), above the env's smallest, {variant.duty_range.low:g}: the resistance could "
+            f"not be read at every duty; expected pwm_frequency_hz at most "
+            f"{variant.duty_range.low / a.driver.settling_time_s:g} Hz"
+        )
 
 
-@functools.lru_cache(maxsize=64)
-def _check_corners(
-    conditions: Conditions, model: ModelConfig, variant: Variant, frozen: tuple, overheat_limit_c: float
-) -> None:
-    """:meth:`Conditions.check` with :func:`require_usable`, remembered once it passed
-    (``frozen``: the reference names, each dict as its sorted items)."""
-    reference = [dict(n) if isinstance(n, tuple) else n for n in frozen]
-    conditions.check(model, lambda drawn: require_usable(drawn, variant, reference, overheat_limit_c))
+_USABLE_CONDITIONS: dict[str, None] = {}
+"""Configurations whose condition ranges passed :meth:`Conditions.check` (JSON keys, oldest
+first): a vector env's sub-envs, and every ``gym.make`` of the same settings, check once."""
 
 
 class MadeWith:
