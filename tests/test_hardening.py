@@ -1850,7 +1850,7 @@ def test_conditions_of_two_files_that_share_a_name_are_both_reported():
     assert _labels(files) == ["a/run.csv", "b/run.csv", "other.csv"]
 
 
-def test_a_stop_during_the_last_renames_waits_until_they_are_all_done(tmp_path, monkeypatch):
+def test_a_stop_during_the_last_renames_waits_until_they_are_all_done(tmp_path, monkeypatch, request):
     """A Ctrl-C between two of a run's final renames left a new report beside an old figure
     (the verifier simulated it): the renames now happen all or none, the stop after them."""
     import os
@@ -1858,10 +1858,15 @@ def test_a_stop_during_the_last_renames_waits_until_they_are_all_done(tmp_path, 
 
     from sma_gym._io import signals_deferred, staged_outputs
 
+    # Python's own Ctrl-C handler, whatever an earlier test left; and the signal raised in this
+    # thread (os.kill lets the kernel hand it to any thread, e.g. a pytest-xdist worker's I/O
+    # thread, and then it can land after the block: one full run found no stop here).
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    request.addfinalizer(lambda: signal.signal(signal.SIGINT, previous))
     done = []
     with pytest.raises(KeyboardInterrupt):
         with signals_deferred():
-            os.kill(os.getpid(), signal.SIGINT)
+            signal.raise_signal(signal.SIGINT)
             for k in range(3):
                 done.append(k)
         done.append("after")  # never reached: the stop lands as the block ends
@@ -1874,7 +1879,7 @@ def test_a_stop_during_the_last_renames_waits_until_they_are_all_done(tmp_path, 
 
     def replace_then_stop(src, dst):
         real_replace(src, dst)
-        os.kill(os.getpid(), signal.SIGINT)  # a stop after the first rename
+        signal.raise_signal(signal.SIGINT)  # a stop after the first rename
 
     with pytest.raises(KeyboardInterrupt):
         with staged_outputs(tmp_path, "evaluate") as staging:
