@@ -374,6 +374,13 @@ class BankAgent:
         ``train.py`` wrote for ``SMAMultiplexed-v0``) is, acting on ``env``'s banks, with the
         residual base it trained on."""
         scheme = str(agent.env_kwargs.get("scheme", "fixed_slots"))
+        env_scheme = str(env_attr(env, "scheme"))
+        if env_scheme != scheme:
+            # The model would read its duty cap by one scheme while the base and the env ran the other.
+            raise ValueError(
+                f"{agent.name}: trained on scheme {scheme!r}, but the env runs {env_scheme!r}: expected a bank env "
+                f"made with scheme={scheme!r}"
+            )
         residual = (
             None
             if agent.residual is None

@@ -17,6 +17,7 @@ from sma_gym._io import check_output_folder, locked_folder, staged_outputs
 from sma_gym.cli import Command
 from sma_gym.data import find_real_data_dir
 from sma_gym.extras import MissingExtraError, extra_error, install_hint, missing
+from sma_gym_agents.controllers import ALL_SPECS
 
 try:
     from sma_gym_agents import evaluation, report_targets
@@ -200,6 +201,8 @@ def agent_names(policies: Sequence[str], names: Sequence[str]) -> list[str]:
     for k, p in enumerate(resolved):
         if p in resolved[:k]:
             raise ValueError(f"--policy {policies[k]!r}: given twice; expected each model once")
+    # A table cell holds no '|' and no line break (a card's name broke the markdown table).
+    names = [" ".join(n.replace("|", "/").split()) or "agent" for n in names]
     out = list(names)
     for name in set(names):
         same = [k for k, n in enumerate(names) if n == name]
@@ -207,7 +210,10 @@ def agent_names(policies: Sequence[str], names: Sequence[str]) -> list[str]:
             common = Path(os.path.commonpath([resolved[k].parent for k in same]))
             for k in same:
                 out[k] = f"{name} ({resolved[k].relative_to(common).with_suffix('').as_posix()})"
-    return out
+    # A name a baseline has ("PID", "PID (self-sensing)", "PID (fixed slots)") shared its row:
+    # the report showed one of the two.
+    labels = [spec.label for spec in ALL_SPECS]
+    return [f"{n} [agent]" if any(n == lab or n.startswith(f"{lab} (") for lab in labels) else n for n in out]
 
 
 def evaluate(

@@ -62,6 +62,51 @@ def env_attr(env: Any, name: str, per_env: bool = False) -> Any:
         ) from None
 
 
+def _layers(env: Any) -> list[Any]:
+    """``env`` and what it wraps, outermost first: Gymnasium wrappers (``.env``), SB3 vector
+    wrappers and the adapter (``.venv``), SB3's ``DummyVecEnv`` (its first env)."""
+    layers, layer = [], env
+    while layer is not None and len(layers) < 64:
+        layers.append(layer)
+        envs = layer.__dict__.get("envs") if hasattr(layer, "__dict__") else None
+        layer = getattr(layer, "env", None) or getattr(layer, "venv", None) or (envs[0] if envs else None)
+    return layers
+
+
+def _width(layer: Any) -> int | None:
+    space = getattr(layer, "single_observation_space", None) or getattr(layer, "observation_space", None)
+    shape = getattr(space, "shape", None)
+    return int(shape[-1]) if shape else None
+
+
+def require_raw_observations(env: Any, who: str) -> int | None:
+    """The width of the raw observations ``env`` gives a controller (None if it does not say),
+    or a ``ValueError`` naming a wrapper that changes them: the controllers read the env's
+    own features (scaled positions, the reference), and normalised or stacked ones gave a
+    silently wrong control (a PID over ``VecNormalize`` returned -82 for -11)."""
+    from gymnasium.wrappers import NormalizeObservation
+    from gymnasium.wrappers.vector import NormalizeObservation as VectorNormalizeObservation
+
+    layers = _layers(env)
+    for layer in layers:
+        normalises = isinstance(layer, (NormalizeObservation, VectorNormalizeObservation)) or (
+            type(layer).__name__ == "VecNormalize" and getattr(layer, "norm_obs", False)
+        )
+        if normalises:
+            raise ValueError(
+                f"{who}: the env's observations pass {type(layer).__name__}, but the controllers read the env's own "
+                "features; expected the env without it (for SB3's VecNormalize, norm_obs=False)"
+            )
+    widths = [w for w in map(_width, layers) if w is not None]
+    if widths and widths[0] != widths[-1]:
+        names = " <- ".join(type(layer).__name__ for layer in layers)
+        raise ValueError(
+            f"{who}: a wrapper makes the env's observations {widths[0]} wide from {widths[-1]} ({names}; frame "
+            "stacking?), but the controllers read one frame of the env's own features; expected the env without it"
+        )
+    return widths[-1] if widths else None
+
+
 def require_finite_observation(
     obs: np.ndarray, feature_names: Sequence[str] | Callable[[], Sequence[str]] | None = None
 ) -> None:
@@ -105,6 +150,8 @@ class ControllerPolicy:
         self._filter_cutoff_hz = filter_cutoff_hz
         self._controller: Controller | None = None
         self._index = {name: i for i, name in enumerate(self.feature_names)}
+        self.width = require_raw_observations(env, self.name)
+        """Width of one observation of ``env`` (its actuators times their features), when it says."""
         if "position" not in self._index and type(self).position_m is ControllerPolicy.position_m:
             # Refused here, not at the first predict() (a new user's evaluation got that far).
             raise ValueError(self._no_position())
@@ -131,10 +178,16 @@ class ControllerPolicy:
     ):
         obs = np.asarray(observation, dtype=float)
         single = obs.ndim == 1
-        if obs.ndim not in (1, 2) or obs.shape[-1] % self.k or not obs.shape[-1]:
+        if obs.ndim not in (1, 2) or obs.shape[-1] % self.k or not obs.shape[-1] or not obs.size:
             raise ValueError(
                 f"observation of shape {obs.shape}: expected ({self.k},), (n * {self.k},) or a batch of them "
                 f"(batch, n * {self.k}) from {self.spec.label}'s env"
+            )
+        if self.width is not None and obs.shape[-1] != self.width:
+            # Another bank's (the duty cap is 1/n of this env's n) or a stacked frame.
+            raise ValueError(
+                f"observation of shape {obs.shape}: expected {self.width} features per observation, as the env this "
+                f"{self.spec.label} was made for gives ({self.width // self.k} actuator(s) x {self.k})"
             )
         # A controller fed NaN returns NaN duties, which no env accepts.
         require_finite_observation(obs, self.feature_names)

@@ -8,6 +8,7 @@ observations the evaluation harness gives it.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -162,6 +163,13 @@ def save_policy(model: Any, path: str | Path, card: PolicyCard | Mapping[str, An
     if not isinstance(card, PolicyCard):
         card = PolicyCard.from_dict(card)
     target = Path(path)
+    if target.suffix == "":
+        target = target.with_suffix(".zip")  # as SB3's save does; load_policy reads <name>.zip
+    elif target.suffix != ".zip":
+        # "agent.pt" wrote agent.pt, which load_policy refuses, and replaced agent.json, another model's card.
+        raise ValueError(
+            f"path = {str(path)!r}: expected a .zip (load_policy reads <name>.zip beside its card <name>.json)"
+        )
     with atomic_path(target) as tmp:
         model.save(tmp)
     card.save(target)
@@ -173,6 +181,8 @@ def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
 
     The card is required and must describe this very zip (see :meth:`PolicyCard.load`).
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"policy = {path!r}: expected the path of a stable-baselines3 .zip written by train.py")
     p = Path(path)
     if p.is_dir():
         raise ValueError(f"policy = {str(path)!r}: a folder; expected a stable-baselines3 .zip written by train.py")
@@ -182,7 +192,7 @@ def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
                 f"policy = {str(path)!r}: not a .zip; expected a stable-baselines3 .zip written by train.py "
                 "(e.g. runs/<run>/best_model.zip)"
             )
-        p = p.with_suffix(".zip")  # "runs/x/best_model" names runs/x/best_model.zip
+        p = p.with_name(p.name + ".zip")  # "runs/x/best_model" names runs/x/best_model.zip ("m.v1": m.v1.zip)
     if not p.is_file():
         raise ValueError(
             f"policy = {str(path)!r}: no such file (expected a stable-baselines3 .zip written by train.py)"

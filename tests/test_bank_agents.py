@@ -231,3 +231,23 @@ def test_a_bank_agents_card_is_run_when_loaded_not_after_the_other_chapters(tmp_
         path = save_policy(model, tmp_path / f"{name}.zip", {**card, **bad})
         with pytest.raises(ValueError, match=f"{name}.zip.*card.*{field}"):
             load_policy(path)
+
+
+def test_a_bank_agent_runs_only_on_a_bank_of_its_own_scheme(tmp_path):
+    """From an audit: a fixed-slots agent ran on a shared-budget env, the model told "duty cap
+    1/n, shared 0" while the env and its base shared one budget."""
+    from stable_baselines3 import SAC
+
+    from sma_gym_agents.bank import BankAgent
+    from sma_gym_agents.trained import load_policy, save_policy
+
+    kwargs = {"n_actuators": 4, "control_period_s": 0.01}
+    venv = make_vec_env("SMAMultiplexed-v0", 1, kwargs, 1, 0, max_episode_steps=20)
+    model = SAC("MlpPolicy", venv, learning_starts=20, batch_size=32, policy_kwargs={"net_arch": [8]}, seed=0)
+    venv.close()
+    card = {"format": "sma-gym-policy", "algo": "SAC", "name": "bank", "env_id": "SMAMultiplexed-v0"}
+    agent = load_policy(save_policy(model, tmp_path / "fixed.zip", {**card, "env_kwargs": kwargs, "frame_stack": 1}))
+    BankAgent.from_policy(agent, gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=8))  # any n, the same scheme
+    shared = gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=4, scheme="shared_budget")
+    with pytest.raises(ValueError, match=r"trained on scheme 'fixed_slots', but the env runs 'shared_budget'"):
+        BankAgent.from_policy(agent, shared)

@@ -2050,3 +2050,61 @@ def test_an_effect_written_flat_with_a_form_is_told_where_its_parameters_go():
 
     with pytest.raises(ValueError, match=r"expected \{'parameters': \{'force_n': \.\.\.\}, 'form': \.\.\.\}"):
         EffectSet.of({"coulomb_friction": {"force_n": 0.5, "form": "stribeck"}})
+
+
+def test_a_controller_refuses_observations_it_would_misread():
+    """From an audit: a PID over VecNormalize read normalised features as positions (a return
+    of -82 for -11); a frame-stacked observation was read as four actuators; a bank's policy
+    made for 4 actuators took an 8-actuator bank's observation and halved its duties."""
+    from gymnasium.wrappers import FlattenObservation, FrameStackObservation, NormalizeObservation
+    from stable_baselines3.common.monitor import Monitor
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecFrameStack, VecNormalize
+
+    from sma_gym_agents import ControllerPolicy
+    from sma_gym_agents.bank import FixedSlotBank
+
+    def tracking():
+        return Monitor(gym.make("sma_gym:SMATracking-v0"))
+
+    for env, message in (
+        (VecNormalize(DummyVecEnv([tracking])), "pass VecNormalize"),
+        (NormalizeObservation(gym.make("sma_gym:SMATracking-v0")), "pass NormalizeObservation"),
+        (FlattenObservation(FrameStackObservation(gym.make("sma_gym:SMATracking-v0"), 4)), "40 wide from 10"),
+        (VecFrameStack(DummyVecEnv([tracking]), 4), "40 wide from 10"),
+    ):
+        with pytest.raises(ValueError, match=rf"PID: .*{message}"):
+            ControllerPolicy("PID", env)
+    assert ControllerPolicy("PID", VecNormalize(DummyVecEnv([tracking]), norm_obs=False)).width == 10
+    policy = ControllerPolicy("PID", gym.make("sma_gym:SMATracking-v0"))
+    for obs in (np.zeros(40), np.zeros((0, 10))):
+        with pytest.raises(ValueError, match=r"observation of shape"):
+            policy.predict(obs)
+    bank = FixedSlotBank("PID", gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=4))
+    eight, _ = gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=8).reset(seed=0)
+    with pytest.raises(ValueError, match=r"expected 40 features per observation, .* \(4 actuator\(s\) x 10\)"):
+        bank.predict(eight)
+
+
+def test_agent_names_never_share_a_baselines_row_or_break_a_table_and_saved_paths_load(tmp_path):
+    """A card named "PID" shared the PID baseline's row (the report showed one of the two); a
+    '|' or a line break in a name broke the markdown table. save_policy wrote "agent" (no
+    .zip) that load_policy could not open, and "agent.pt" replaced agent.json, another
+    model's card."""
+    from sma_gym_agents.commands import agent_names
+    from sma_gym_agents.trained import load_policy, save_policy
+
+    names = agent_names(
+        ["a.zip", "b.zip", "c.zip", "d.zip"], ["PID", "VSC3 + FF (self-sensing)", "a|b\nc", "SAC agent"]
+    )
+    assert names == ["PID [agent]", "VSC3 + FF (self-sensing) [agent]", "a/b c", "SAC agent"]
+    assert save_policy(_tiny_model(), tmp_path / "agent", CARD) == tmp_path / "agent.zip"
+    assert load_policy(tmp_path / "agent").name
+    (tmp_path / "agent.json").write_text((tmp_path / "agent.json").read_text())
+    before = (tmp_path / "agent.json").read_bytes()
+    with pytest.raises(ValueError, match=r"path = .*agent\.pt.*expected a \.zip"):
+        save_policy(_tiny_model(), tmp_path / "agent.pt", CARD)
+    assert (tmp_path / "agent.json").read_bytes() == before and not (tmp_path / "agent.pt").exists()
+    save_policy(_tiny_model(), tmp_path / "m.v1.zip", CARD)
+    assert load_policy(tmp_path / "m.v1").name  # looked for m.zip
+    with pytest.raises(ValueError, match=r"policy = None: expected the path"):
+        load_policy(None)
