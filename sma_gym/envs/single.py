@@ -275,8 +275,8 @@ def start_actuator(
 def require_usable(model: ModelConfig, variant: Variant, reference: Sequence, overheat_limit_c: float) -> None:
     """Refuse a wire on which an env's episodes cannot run: a reference (a dict's fields, the
     report's fixed levels) beyond its stroke, an overheat limit it reaches before it moves
-    (every step would end the episode), or, with the resistance observed, PWM pulses too
-    short for a reading at the smallest duty (it would never be read)."""
+    (every episode would end before the wire moved), or, with the resistance observed, PWM
+    pulses shorter than the settling at the env's smallest duty (no reading there)."""
     a = model.actuator
     for name in reference:
         refs.resolve(name, np.random.default_rng(0), a.usable_stroke_m, "step")
