@@ -328,3 +328,42 @@ def test_sigterm_stops_a_sweep_and_its_seeds_at_once(tmp_path, monkeypatch, caps
     assert "terminated; no seed finished yet; --resume --out" in captured.err
     assert "FAILED" not in captured.out  # a stopped seed is "stopped", not failed
     assert sorted(p.name for p in started.iterdir()) == ["0", "1"]  # the queued third never started
+
+
+def test_overwrite_keeps_the_earlier_sweep_until_a_seed_of_the_new_one_kept_a_file(tmp_path, monkeypatch, capsys):
+    """``--overwrite`` deleted the earlier sweep (hours of seeds) before the new one started:
+    a Ctrl-C a minute later left neither. Now it is set aside and put back when the new sweep
+    stops before any seed kept a file, and deleted once one has (or the sweep ends)."""
+    out = tmp_path / "sweep"
+    _finished_before(out / "seed-0", ["--quick"], 0, agent_mm=1.5)
+    (out / "logs").mkdir()
+    (out / "logs" / "seed-0.log").write_text("the earlier sweep's log")
+    (out / "seeds.md").write_text("the earlier table")
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+
+    def stopped_early(args, run, folder):  # a seed started (log, empty folder), then Ctrl-C
+        (folder / "logs").mkdir()
+        (folder / "logs" / "seed-0.log").write_text("new")
+        (folder / "seed-0").mkdir()
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweep_module, "sweep", stopped_early)
+    assert main(["--seeds", "2", "--quick", "--out", str(out), "--overwrite"]) == 130
+    assert f"before any seed kept a file; the earlier sweep in {out} is back as it was" in capsys.readouterr().err
+    assert {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    assert not (out / sweep_module.PREVIOUS_SWEEP_DIR).exists()
+
+    def stopped_later(args, run, folder):  # seed 0 kept a checkpoint before the stop
+        (folder / "seed-0" / "checkpoints").mkdir(parents=True)
+        (folder / "seed-0" / "checkpoints" / "model_1000_steps.zip").write_text("new")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweep_module, "sweep", stopped_later)
+    assert main(["--seeds", "2", "--quick", "--out", str(out), "--overwrite"]) == 130
+    assert f"interrupted; no seed finished yet; --resume --out {out} continues the sweep" in capsys.readouterr().err
+    assert sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()) == [
+        "seed-0/checkpoints/model_1000_steps.zip"
+    ]
+    # A folder left by a sweep killed outright is no stranger to --resume.
+    (out / sweep_module.PREVIOUS_SWEEP_DIR).mkdir()
+    sweep_module.require_sweep_folder(out)

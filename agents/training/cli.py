@@ -60,9 +60,9 @@ def main(argv: list[str] | None = None) -> int:
             # put back an earlier run it had set aside), so promise no checkpoints.
             print(f"train.py: {how} before the first checkpoint; nothing of this run is kept in {out}", file=sys.stderr)
         elif sweep:
-            from sma_gym_agents.training.sweep import finished_note
+            from sma_gym_agents.training.sweep import stopped_note
 
-            print(f"train.py: {how}; {finished_note(out)}; --resume --out {out} continues the sweep", file=sys.stderr)
+            print(f"train.py: {how}{stopped_note(err, out)}", file=sys.stderr)
         elif (out / "final_model.zip").is_file():
             print(
                 f"train.py: {how} while scoring; training had finished: {out / 'final_model.zip'} is kept (and "

@@ -281,7 +281,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--overwrite",
         action="store_true",
         help="allow a non-empty --out: the previous run's outputs there are replaced (a single run puts them back if "
-        "it is refused or stopped before it trained; a sweep deletes them first) (default: refuse a non-empty --out)",
+        "it is refused or stopped before it trained; a sweep, if it is stopped before any seed kept a file) "
+        "(default: refuse a non-empty --out)",
     )
     p.add_argument("--device", default="cpu", help="torch device, e.g. cpu, cuda, cuda:1, mps (default cpu)")
     p.add_argument(

@@ -24,6 +24,7 @@ import contextlib
 import dataclasses
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -47,7 +48,10 @@ BOOTSTRAP_RESAMPLES = 2_000
 BOOTSTRAP_SEED = 0
 CONFIDENCE = 0.95
 SWEEP_OUTPUTS = ("seeds.md", "seeds.json", "logs")
-"""What a sweep writes besides its ``seed-<s>`` folders (deleted first by ``--overwrite``)."""
+"""What a sweep writes besides its ``seed-<s>`` folders (what ``--overwrite`` replaces)."""
+PREVIOUS_SWEEP_DIR = ".previous-sweep"
+"""Where ``--overwrite`` keeps the earlier sweep (inside ``--out``) until a seed of the new one
+has kept a file: a sweep stopped or failing before that puts the earlier one back."""
 _NOT_PER_SEED = {"help", "seeds", "workers", "seed", "out", "overwrite", "resume"}
 """Options of the sweep itself, not passed on to each seed's run."""
 
@@ -447,7 +451,8 @@ def require_sweep_folder(out: Path) -> None:
     foreign = sorted(
         p.name
         for p in out.iterdir()
-        if p.name not in (*SWEEP_OUTPUTS, LOCK_NAME) and not (p.is_dir() and re.fullmatch(r"seed-\d+", p.name))
+        if p.name not in (*SWEEP_OUTPUTS, LOCK_NAME, PREVIOUS_SWEEP_DIR)
+        and not (p.is_dir() and re.fullmatch(r"seed-\d+", p.name))
     )
     if foreign:
         shown = ", ".join(foreign[:5]) + (", ..." if len(foreign) > 5 else "")
@@ -457,15 +462,56 @@ def require_sweep_folder(out: Path) -> None:
         )
 
 
-def prepare_sweep_out(out: Path) -> None:
-    """Delete a previous sweep's outputs from ``out`` (``--overwrite``)."""
-    import shutil
+def _sweep_paths(out: Path) -> list[Path]:
+    """A sweep's outputs in ``out``: :data:`SWEEP_OUTPUTS` and its ``seed-<s>`` folders."""
+    import re
 
-    for path in [*(out / name for name in SWEEP_OUTPUTS), *out.glob("seed-*")]:
+    named = [out / name for name in SWEEP_OUTPUTS if (out / name).exists() or (out / name).is_symlink()]
+    return named + sorted(p for p in out.glob("seed-*") if re.fullmatch(r"seed-\d+", p.name))
+
+
+def prepare_sweep_out(out: Path) -> None:
+    """Delete a previous sweep's outputs from ``out``."""
+    for path in _sweep_paths(out):
         if path.is_dir() and not path.is_symlink():
             shutil.rmtree(path)
-        elif path.exists() or path.is_symlink():
+        else:
             path.unlink()
+
+
+def set_aside_sweep(out: Path) -> Path:
+    """Move a previous sweep's outputs in ``out`` into :data:`PREVIOUS_SWEEP_DIR`
+    (``--overwrite``) and return that folder: gone from ``out``, so none is counted as the new
+    sweep's, but not yet deleted (a sweep's seeds are hours of training)."""
+    aside = out / PREVIOUS_SWEEP_DIR
+    if aside.exists():  # left by a sweep killed outright: older than the sweep in out
+        shutil.rmtree(aside)
+    aside.mkdir(parents=True)
+    for path in _sweep_paths(out):
+        path.rename(aside / path.name)
+    return aside
+
+
+def sweep_kept_nothing(out: Path) -> bool:
+    """True if no seed of the sweep in ``out`` has kept a file (a seed's run removes what it
+    wrote when it stops or is refused before its first checkpoint; logs are not results)."""
+    from sma_gym._io import LOCK_NAME
+
+    return not any(
+        p.is_file() and p.name != LOCK_NAME
+        for folder in _sweep_paths(out)
+        if folder.name.startswith("seed-")
+        for p in ([folder] if folder.is_file() else folder.rglob("*"))
+    )
+
+
+def put_back_sweep(aside: Path, out: Path) -> None:
+    """Undo :func:`set_aside_sweep` after a sweep that kept nothing: its logs and empty seed
+    folders removed, the earlier sweep's outputs back in ``out``."""
+    prepare_sweep_out(out)
+    for path in aside.iterdir():
+        path.rename(out / path.name)
+    aside.rmdir()
 
 
 def default_sweep_out(run: RunConfig) -> Path:
@@ -526,6 +572,15 @@ def finished_note(out: Path) -> str:
     return f"seeds {', '.join(map(str, done))} finished and are kept" if done else "no seed finished yet"
 
 
+def stopped_note(err: BaseException, out: Path | None) -> str:
+    """What the line of a stopped sweep in ``out`` says after "interrupted" / "terminated"."""
+    if (put_back := getattr(err, "sweep_put_back", None)) is not None:
+        return f" before any seed kept a file; the earlier sweep in {put_back} is back as it was"
+    if out is None or not out.exists():
+        return ""
+    return f"; {finished_note(out)}; --resume --out {out} continues the sweep"
+
+
 def sweep_main(args: argparse.Namespace, run: RunConfig) -> int:
     """``train.py --seeds N``: the folder checked and locked, the sweep, its table printed;
     0, or 1 if seeds failed."""
@@ -546,9 +601,19 @@ def sweep_main(args: argparse.Namespace, run: RunConfig) -> int:
         if not out.exists():
             print(f"train.py: --resume: {out} does not exist yet; nothing to continue, the sweep starts", flush=True)
     with locked_folder(out):
-        if args.overwrite:
-            prepare_sweep_out(out)
-        table, failed = sweep(args, run, out)
+        previous = set_aside_sweep(out) if args.overwrite else None
+        try:
+            table, failed = sweep(args, run, out)
+        except BaseException as err:
+            if previous is not None:
+                if sweep_kept_nothing(out):
+                    put_back_sweep(previous, out)
+                    err.sweep_put_back = out  # what main's message says of --out
+                else:
+                    shutil.rmtree(previous)
+            raise
+        if previous is not None:
+            shutil.rmtree(previous)
     print(table)
     print(f"sweep folder: {out}")
     return 1 if failed else 0
@@ -559,6 +624,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not any(a == "--seeds" or a.startswith("--seeds=") for a in argv):
         argv = ["--seeds", "5", *argv]
+    args = None
     try:
         args = parse_args(argv)
         check_sweep_args(args)
@@ -569,8 +635,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt as err:  # as train.py's (a traceback before 2026-12-06)
         how, code = stopped(err)
-        kept = finished_note(Path(args.out)) if getattr(args, "out", None) else "the finished seeds are kept"
-        print(f"train.py: {how}; {kept}; --resume with the same options continues the sweep", file=sys.stderr)
+        out = Path(args.out) if getattr(args, "out", None) else None
+        print(f"train.py: {how}{stopped_note(err, out)}", file=sys.stderr)
         return code
 
 
