@@ -387,6 +387,38 @@ def test_rgb_array_render_shows_the_episode():
     env.close()
 
 
+def test_a_frame_depends_on_the_episode_so_far_alone():
+    """The axis ranges only grew, from whatever the frames drawn before had needed and across
+    episodes, and by a quarter of the old range at each end: the same step of the same episode
+    gave different frames by how often render() had been called, and the time axis began
+    below 0 s. Now the ranges are a function of the episode's data."""
+    from sma_gym.envs.render import axis_limits, time_limits
+
+    def frame(render_every: int, episode_before: bool = False) -> np.ndarray:
+        env = make("SMATracking-v0", render_mode="rgb_array")
+        if episode_before:  # another episode, drawn, with its own ranges
+            env.reset(seed=5)
+            for _ in range(300):
+                env.step(np.array([1.0], dtype=np.float32))
+            env.render()
+        env.reset(seed=0)
+        rng = np.random.default_rng(1)
+        for k in range(400):
+            env.step(rng.uniform(0.0, 1.0, size=1).astype(np.float32))
+            if render_every and k % render_every == 0:
+                env.render()
+        image = env.render()
+        env.close()
+        return image
+
+    every_step = frame(1)
+    assert np.array_equal(every_step, frame(0))
+    assert np.array_equal(every_step, frame(7, episode_before=True))
+    assert time_limits(0.0, 4.0) == (0.0, 5.0) and time_limits(0.0, 0.02) == (0.0, 1.0)
+    low, high = axis_limits(20.0, 130.0, 10.0)
+    assert low <= 20.0 - 5.0 and high >= 130.0 + 5.0 and high - low <= 1.5 * 110.0
+
+
 def test_human_render_without_a_window_says_so_once(monkeypatch):
     """Headless, pyplot falls back to Agg and render_mode='human' showed nothing, silently."""
     import matplotlib

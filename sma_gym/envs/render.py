@@ -3,9 +3,9 @@
 Fast enough for ``RecordVideo`` at every step (``benchmarks/bench_render.py``): the figure
 is a :class:`matplotlib.figure.Figure` on its own Agg canvas (never pyplot, so the user's
 global backend and figure list are untouched); axes, labels and title are drawn only when
-an axis range has to grow (ranges grow by at least a quarter, so that happens a few dozen
-times per episode), and otherwise the cached background is restored and only the lines are
-drawn over it (blitting).
+an axis range changes (ranges are snapped to 1-2-5 steps of the data's span, so that happens
+a few dozen times per episode), and otherwise the cached background is restored and only the
+lines are drawn over it (blitting). A frame is a function of the episode so far alone.
 """
 
 from __future__ import annotations
@@ -62,13 +62,33 @@ class EpisodeHistory:
         return {k: v[: self._size] for k, v in self._data.items()}
 
 
-def _grown(limits: tuple[float, float], low: float, high: float, floor: float) -> tuple[float, float]:
-    """``limits`` if [low, high] fits inside, else a range a quarter wider than needed."""
-    lo, hi = limits
-    if lo <= low and high <= hi:
-        return limits
+def _nice_at_least(x: float) -> float:
+    """The smallest of 1, 2, 5 x 10^k that is at least ``x`` (> 0)."""
+    exponent = np.floor(np.log10(x))
+    for mantissa in (1.0, 2.0, 5.0, 10.0):
+        if mantissa * 10.0**exponent >= x * (1 - 1e-12):
+            return float(mantissa * 10.0**exponent)
+    return float(10.0 ** (exponent + 1))  # pragma: no cover (10 x 10^k >= x always)
+
+
+def axis_limits(low: float, high: float, floor: float) -> tuple[float, float]:
+    """Axis range of data spanning [``low``, ``high``]: a margin of 5 % of the span (at
+    least ``floor``), snapped outward to a 1-2-5 step of about a tenth of the span.
+
+    A function of the data alone, so a frame depends only on the episode so far (not on
+    which frames were drawn before it, or on earlier episodes), and the range changes only
+    at a few thresholds per episode (each change redraws the cached background)."""
     span = max(high - low, floor)
-    return min(lo, low - 0.25 * span), max(hi, high + 0.25 * span)
+    step = _nice_at_least(span / 10)
+    lo = np.floor((low - 0.05 * span) / step) * step
+    hi = np.ceil((high + 0.05 * span) / step) * step
+    return float(lo), float(hi)
+
+
+def time_limits(start_s: float, end_s: float) -> tuple[float, float]:
+    """Time axis from the episode's start to the next 1-2-5 step past its last sample (at
+    least 1 s): never before the start, as the data's own range."""
+    return start_s, start_s + _nice_at_least(max(end_s - start_s, 1.0))
 
 
 class EpisodePlot:
@@ -108,15 +128,17 @@ class EpisodePlot:
             self._setup(title, n, labels)
             self._key = key
         t = h["t"]
-        limits = [_grown(self._limits[0], 0.0, float(t[-1]) if len(t) else 0.0, 1.0)]
-        for ax_fields, (_, _, scale, floor), old in zip(self._fields(), self._AXES, self._limits[1:]):
-            data = [per_actuator[f] for f in ax_fields]
-            if len(t):
-                low = min(float(np.nanmin(d)) for d in data) * scale
-                high = max(float(np.nanmax(d)) for d in data) * scale
-                limits.append(_grown(old, low, high, floor) if np.isfinite(low + high) else old)
+        limits = [time_limits(float(t[0]), float(t[-1])) if len(t) else (0.0, 1.0)]
+        for ax_fields, (_, _, scale, floor) in zip(self._fields(), self._AXES):
+            # a reference is NaN where the task has none
+            finite = [d[np.isfinite(d)] for d in (per_actuator[f] for f in ax_fields)]
+            finite = [d for d in finite if d.size]
+            if finite:
+                low = min(float(d.min()) for d in finite) * scale
+                high = max(float(d.max()) for d in finite) * scale
+                limits.append(axis_limits(low, high, floor))
             else:
-                limits.append(old)
+                limits.append((0.0, floor))
         for name, lines in self._lines.items():
             for j, line in enumerate(lines):
                 line.set_data(t, per_actuator[name][:, j] * self._scale(name))
