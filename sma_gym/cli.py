@@ -85,7 +85,7 @@ def _diagnose(args: argparse.Namespace) -> int:
         print(f"sma-gym diagnose: invalid measured data:\n{err}", file=sys.stderr)
         return 2
     require_diagnosable(fit, held)
-    for note in data_notes([*fit, *held]):
+    for note in data_notes(fit, held):
         print(f"sma-gym diagnose: note: {note}", file=sys.stderr)
     named = _sidecar_model([*fit, *held])
     if args.model is not None and named is not None and args.model != named:

@@ -717,7 +717,7 @@ def generate(
         position=take("position_measured_m", float(run["initial_reading_m"])),
         resistance=take("resistance_measured_ohm", math.nan) if electrical else None,
         current=take("current_measured_a", math.nan) if electrical else None,
-        supply_voltage=take("voltage_measured_v", math.nan) if electrical else None,
+        wire_voltage=take("voltage_measured_v", math.nan) if electrical else None,
         conditions={
             "supply_voltage_v": params.driver.supply_voltage_v,
             "pwm_frequency_hz": params.driver.pwm_frequency_hz,

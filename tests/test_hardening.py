@@ -761,7 +761,7 @@ def test_diagnose_shows_progress_and_decimates_oversampled_files(tmp_path, capsy
     said: list[str] = []
     small = _decimated(dense, 1e-3, said.append)
     assert len(small.t) <= 5_001 and "keeping every 10th" in said[0]
-    long = type(trace)(path="long.csv", t=np.arange(0, 4000.0, 0.5), duty=np.zeros(8000), position=np.zeros(8000))
+    long = type(trace)(path="long.csv", t=np.arange(0, 4000.0, 0.25), duty=np.zeros(16000), position=np.zeros(16000))
     with pytest.raises(ValueError, match="at most 1800 s"):
         _decimated(long, 1e-3, said.append)
     from sma_gym.cli import main
@@ -985,7 +985,7 @@ def test_diagnose_refuses_unusable_data_before_it_creates_out(tmp_path, capsys):
     dead = tmp_path / "dead.csv"  # the duty steps, the sensor never moves
     dead.write_text(
         "t,duty,position,resistance\n"
-        + "".join(f"{k * 1e-3!r},{0.3 if k > 500 else 0.0},0.0,3.75\n" for k in range(3000))
+        + "".join(f"{k * 1e-3!r},{0.3 if k > 500 else 0.0},0.0,{'3.75' if k > 500 else ''}\n" for k in range(3000))
     )
     cold = tmp_path / "cold.csv"  # never heated: the position is sensor noise only
     cold.write_text("t,duty,position\n" + "".join(f"{k * 1e-3!r},0.0,{(k % 7) * 1e-6!r}\n" for k in range(3000)))

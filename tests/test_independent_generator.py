@@ -367,18 +367,18 @@ def clean_trace():
 
 #: effect -> (outputs it must change, outputs it must leave exactly as they were).
 CHANGES = {
-    "sensor_lag": (("position",), ("resistance", "current", "supply_voltage")),
-    "abbe_offset": (("position",), ("resistance", "current", "supply_voltage")),
-    "convection_change": (("position", "resistance"), ("supply_voltage",)),
-    "coulomb_friction": (("position",), ("supply_voltage",)),
-    "supply_sag": (("position", "resistance", "supply_voltage"), ()),
-    "latent_heat": (("position", "resistance"), ("supply_voltage",)),
-    "transformation_spread": (("position", "resistance"), ("supply_voltage",)),
-    "minor_loop_width": (("position", "resistance"), ("supply_voltage",)),
+    "sensor_lag": (("position",), ("resistance", "current", "wire_voltage")),
+    "abbe_offset": (("position",), ("resistance", "current", "wire_voltage")),
+    "convection_change": (("position", "resistance"), ("wire_voltage",)),
+    "coulomb_friction": (("position",), ("wire_voltage",)),
+    "supply_sag": (("position", "resistance", "wire_voltage"), ()),
+    "latent_heat": (("position", "resistance"), ("wire_voltage",)),
+    "transformation_spread": (("position", "resistance"), ("wire_voltage",)),
+    "minor_loop_width": (("position", "resistance"), ("wire_voltage",)),
 }
 #: "Changed" means an RMS change of at least three times the noise of a synthetic trace
 #: (over thousands of samples that is far above what noise alone can do).
-THRESHOLDS = {"position": 3 * POSITION_NOISE_M, "resistance": 3 * RESISTANCE_NOISE_OHM, "supply_voltage": 1e-2}
+THRESHOLDS = {"position": 3 * POSITION_NOISE_M, "resistance": 3 * RESISTANCE_NOISE_OHM, "wire_voltage": 1e-2}
 
 
 def _rms_finite(a: np.ndarray, b: np.ndarray) -> float:
@@ -467,7 +467,7 @@ def test_trace_round_trips_through_the_csv_writer_and_loader(
     loaded = load_trace(path, min_rows=DIAGNOSIS_MIN_ROWS)
     assert loaded.t.size == trace.t.size == int(round(8.0 / sample_period_s)) + 1
     np.testing.assert_allclose(np.diff(loaded.t), sample_period_s, rtol=1e-9)
-    for column in ("t", "duty", "position", "resistance", "current", "supply_voltage"):
+    for column in ("t", "duty", "position", "resistance", "current", "wire_voltage"):
         original = getattr(trace, column)
         if original is None:
             assert getattr(loaded, column) is None

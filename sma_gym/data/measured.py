@@ -10,11 +10,19 @@ column         unit     meaning
 t              s        time, strictly increasing (required)
 duty           0..1     commanded PWM duty cycle (required)
 position       m        measured contraction, positive = wire contracted (required)
-resistance     ohm      V/I reading; empty where it could not be measured (optional)
-current        A        current during the on-time (optional, may be empty)
-supply_voltage V        supply voltage (optional)
+resistance     ohm      V/I reading during the on-time (optional; > 0)
+current        A        current during the on-time (optional)
+wire_voltage   V        voltage across the wire during the on-time (optional)
 force          N        bias-spring force (optional)
 ============== ======== ===========================================================
+
+The electrical readings are the model's: taken during a PWM pulse, so a cell is left empty
+where none could be (the duty is 0, or the pulse was too short to settle). A logger that
+writes 0 where the wire was not driven is read as empty there (a 0 in a row whose duty is
+0); any other reading in such a row is refused, as the model has none to compare it with.
+The supply's voltage is a condition, not a column: it goes into the sidecar. A column named
+``supply_voltage`` is refused with both meanings spelt out (files that ``sma-gym synth``
+wrote before 2026-12-07 name the wire's voltage so: rename it ``wire_voltage``).
 
 Conditions that are constant over the file go into an optional JSON sidecar next to it,
 named ``<file>.json`` (e.g. ``step01.csv.json``; ``step01.json`` is accepted too)::
@@ -53,7 +61,9 @@ from sma_gym._validation import require_range
 from sma_gym.params import parameter_bound
 
 REQUIRED = ("t", "duty", "position")
-OPTIONAL = ("resistance", "current", "supply_voltage", "force")
+OPTIONAL = ("resistance", "current", "wire_voltage", "force")
+ELECTRICAL = ("resistance", "current", "wire_voltage")
+"""The on-time readings: empty (or 0) where the duty is 0 (the model has none there)."""
 KNOWN_COLUMNS = REQUIRED + OPTIONAL
 SIDECAR_KEYS = {
     "supply_voltage_v": "driver.supply_voltage_v",
@@ -74,6 +84,7 @@ MAX_ABS_POSITION_M = 0.1
 MAX_RESISTANCE_OHM = 1000.0
 MAX_CURRENT_A = 50.0
 MAX_FORCE_N = 1000.0
+MAX_WIRE_VOLTAGE_V = 100.0
 
 DIAGNOSIS_MIN_ROWS = 20
 """Fewest samples a file given to the diagnosis may have: it fits more than ten samples of
@@ -92,7 +103,10 @@ class MeasuredDataError(ValueError):
 
 @dataclass(frozen=True)
 class MeasuredTrace:
-    """One measured run, in SI units."""
+    """One measured run, in SI units (the columns of the format above, as float arrays of
+    one length). Made from arrays, it is checked as a loaded file is (:class:`MeasuredDataError`
+    naming ``path``, the row and the column: a position in millimetres, a time that does not
+    increase, a NaN where a value is required)."""
 
     path: str
     t: np.ndarray
@@ -100,9 +114,37 @@ class MeasuredTrace:
     position: np.ndarray
     resistance: np.ndarray | None = None
     current: np.ndarray | None = None
-    supply_voltage: np.ndarray | None = None
+    wire_voltage: np.ndarray | None = None
     force: np.ndarray | None = None
     conditions: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        where = str(self.path)
+        columns: dict[str, np.ndarray] = {}
+        for name in KNOWN_COLUMNS:
+            value = getattr(self, name)
+            if value is None:
+                if name in REQUIRED:
+                    raise MeasuredDataError([f"{where}: {name} = None; expected an array of {name} values"])
+                continue
+            try:
+                array = np.array(value, dtype=float)  # a copy: the trace never shares the caller's array
+            except (TypeError, ValueError):
+                raise MeasuredDataError(
+                    [f"{where}: {name}: a {type(value).__name__} that is not numbers; expected a 1-D array of floats"]
+                ) from None
+            if array.ndim != 1:
+                raise MeasuredDataError([f"{where}: {name}: shape {array.shape}; expected a 1-D array (one per row)"])
+            array.flags.writeable = False
+            object.__setattr__(self, name, array)
+            columns[name] = array
+        lengths = {name: len(a) for name, a in columns.items()}
+        if len(set(lengths.values())) > 1:
+            raise MeasuredDataError([f"{where}: columns of different lengths {lengths}; expected one value per row"])
+        unreported = {name: np.zeros(len(a), dtype=bool) for name, a in columns.items()}
+        problems = _value_problems(columns, where, unreported)
+        if problems:
+            raise MeasuredDataError(problems)
 
     @property
     def name(self) -> str:
@@ -169,7 +211,7 @@ class MeasuredTrace:
             position=self.position[keep],
             resistance=part(self.resistance),
             current=part(self.current),
-            supply_voltage=part(self.supply_voltage),
+            wire_voltage=part(self.wire_voltage),
             force=part(self.force),
             conditions=dict(self.conditions),
         )
@@ -195,8 +237,10 @@ def _parse_float(text: str) -> float:
     text = text.strip()
     if text == "" or text.lower() in ("nan", "na", "null", "none"):
         return math.nan
-    if "_" in text:
-        raise ValueError(text)  # Python reads "1_0e-6" as 1e-5; no CSV writer means that
+    if "_" in text or not text.isascii():
+        # Python reads "1_0e-6" as 1e-5 and full-width or Arabic-Indic digits as numbers; no
+        # CSV writer means either.
+        raise ValueError(text)
     return float(text)
 
 
@@ -258,14 +302,37 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
                 "on the first line (remarks belong in the sidecar's 'notes')"
             ]
         )
+    shown_header = ", ".join(header[:10]) + (f", ... ({len(header)} names)" if len(header) > 10 else "")
+    if len(header) > 2 and header[0] in REQUIRED and _is_number(header[1]):
+        # One row per channel (an oscilloscope's or a transposed spreadsheet's export).
+        raise MeasuredDataError(
+            [
+                f"{where}:1: the first row is {header[0]!r} followed by numbers ({shown_header}); expected one column "
+                f"per quantity and one row per sample: is the file transposed?"
+            ]
+        )
     for name in REQUIRED:
         if name not in header:
-            problems.append(f"{where}:1:{name}: missing required column (header has {header})")
-    for name in header:
-        if name not in KNOWN_COLUMNS:
+            problems.append(f"{where}:1:{name}: missing required column (header: {shown_header})")
+    unknown = [(k, name) for k, name in enumerate(header) if name not in KNOWN_COLUMNS]
+    for k, name in unknown[:MAX_PROBLEMS_SHOWN]:
+        if name == "":
+            problems.append(
+                f"{where}:1: column {k + 1} has no name (a pandas index written by to_csv, or a trailing comma?); "
+                f"expected only {', '.join(KNOWN_COLUMNS)}"
+            )
+        elif name == "supply_voltage":
+            problems.append(
+                f"{where}:1:supply_voltage: not a column of this format; the voltage across the wire during the "
+                "on-time is the column wire_voltage (files sma-gym synth wrote before 2026-12-07 name it "
+                "supply_voltage: rename it), and the supply's voltage goes into the sidecar as supply_voltage_v"
+            )
+        else:
             problems.append(f"{where}:1:{name}: unknown column; expected only {', '.join(KNOWN_COLUMNS)}")
+    if len(unknown) > MAX_PROBLEMS_SHOWN:
+        problems.append(f"{where}:1: ... {len(unknown) - MAX_PROBLEMS_SHOWN} more unknown columns")
     if len(set(header)) != len(header):
-        problems.append(f"{where}:1: duplicate column names in header {header}")
+        problems.append(f"{where}:1: duplicate column names in header ({shown_header})")
     if problems:
         raise MeasuredDataError(problems)
     data_rows = rows[1:]
@@ -310,6 +377,13 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
     if hidden["number"]:
         problems.append(f"{where}: ... {hidden['number']} more cells that are not numbers")
     return columns, problems, reported
+
+
+def _is_number(text: str) -> bool:
+    try:
+        return math.isfinite(_parse_float(text))
+    except ValueError:
+        return False
 
 
 def _value_problems(columns: dict[str, np.ndarray], where: str, reported: dict[str, np.ndarray]) -> list[str]:
@@ -364,16 +438,31 @@ def _value_problems(columns: dict[str, np.ndarray], where: str, reported: dict[s
         ("resistance", MAX_RESISTANCE_OHM, "ohm"),
         ("current", MAX_CURRENT_A, "A"),
         ("force", MAX_FORCE_N, "N"),
-        ("supply_voltage", 100.0, "V"),
+        ("wire_voltage", MAX_WIRE_VOLTAGE_V, "V"),
     ):
         if name in columns:
             v = columns[name]
-            bad = np.flatnonzero(np.isfinite(v) & ((v < 0.0) | (v > limit)))
+            # A wire always has a resistance: 0 ohm is a logger's fill value, not a reading.
+            low_bad = v <= 0.0 if name == "resistance" else v < 0.0
+            bad = np.flatnonzero(np.isfinite(v) & (low_bad | (v > limit)))
+            if bad.size:
+                i = bad[0]
+                low = f"(0, {limit:g}]" if name == "resistance" else f"[0, {limit:g}]"
+                problems.append(
+                    f"{where}:{i + 2}:{name}: {float(v[i]):g} {unit} ({bad.size} row{'s' if bad.size > 1 else ''} "
+                    f"outside the range); expected values in {low} {unit} (SI units)"
+                )
+    off = np.isfinite(duty) & (duty == 0.0)
+    for name in ELECTRICAL:
+        if name in columns:
+            v = columns[name]
+            bad = np.flatnonzero(off & np.isfinite(v))
             if bad.size:
                 i = bad[0]
                 problems.append(
-                    f"{where}:{i + 2}:{name}: {float(v[i]):g} {unit} ({bad.size} row{'s' if bad.size > 1 else ''} "
-                    f"outside the range); expected values in [0, {limit:g}] {unit} (SI units)"
+                    f"{where}:{i + 2}:{name}: {float(v[i]):g} where the duty is 0 ({bad.size} "
+                    f"row{'s' if bad.size > 1 else ''}); this column holds readings during a PWM pulse, which the "
+                    "model has none of there: leave the cell empty (or 0) where the wire was not driven"
                 )
 
     return problems
@@ -413,18 +502,35 @@ def _read_sidecar(p: Path) -> tuple[dict[str, Any], list[str]]:
     return conditions, problems
 
 
+def _require_path(path: object, what: str) -> Path:
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(
+            f"{what} = {type(path).__name__} object: expected the path of a CSV file (str or os.PathLike); "
+            "a trace in memory is a MeasuredTrace(path, t, duty, position, ...) made from its arrays"
+        )
+    return Path(path)
+
+
 def load_trace(path: str | Path, min_rows: int = 2) -> MeasuredTrace:
     """Load and validate one CSV file (and its sidecar). Raises :class:`MeasuredDataError`.
 
     ``min_rows``: fewest data rows accepted (``DIAGNOSIS_MIN_ROWS`` for a diagnosis).
     """
-    p = Path(path)
+    from sma_gym._validation import require_int_range
+
+    p = _require_path(path, "path")
+    require_int_range("min_rows", min_rows, 2, 10**9)
     where = str(p)
     if not p.exists():
         raise MeasuredDataError([f"{where}: file does not exist"])
     if p.is_dir():
         raise MeasuredDataError([f"{where}: is a directory, expected a CSV file"])
     columns, problems, reported = _read_columns(p, where, min_rows)
+    if "duty" in columns:
+        off = columns["duty"] == 0.0
+        for name in ELECTRICAL:
+            if name in columns:  # a logger's 0 where the wire was not driven: no reading
+                columns[name][off & (columns[name] == 0.0)] = math.nan
     problems += _value_problems(columns, where, reported)
     conditions, sidecar_problems = _read_sidecar(p)
     problems += sidecar_problems
@@ -438,14 +544,19 @@ def load_trace(path: str | Path, min_rows: int = 2) -> MeasuredTrace:
         position=position,
         resistance=columns.get("resistance"),
         current=columns.get("current"),
-        supply_voltage=columns.get("supply_voltage"),
+        wire_voltage=columns.get("wire_voltage"),
         force=columns.get("force"),
         conditions=conditions,
     )
 
 
-def load_traces(paths: Sequence[str | Path], min_rows: int = 2) -> list[MeasuredTrace]:
-    """Load several files, collecting the problems of all of them before raising."""
+def load_traces(paths: Sequence[str | Path] | str | Path, min_rows: int = 2) -> list[MeasuredTrace]:
+    """Load several files, collecting the problems of all of them before raising (one path
+    is one file, not a sequence of characters)."""
+    if isinstance(paths, (str, os.PathLike)):
+        paths = [paths]
+    elif not isinstance(paths, Sequence) or isinstance(paths, bytes):
+        raise TypeError(f"paths = {type(paths).__name__} object: expected a path or a list of paths of CSV files")
     traces = []
     problems: list[str] = []
     for path in paths:

@@ -40,7 +40,7 @@ OUTPUT_COLUMNS = {
     "position": ("position", "position_measured_m", 1e-6),
     "resistance": ("resistance", "resistance_measured_ohm", 5e-4),
     "current": ("current", "current_measured_a", 1e-4),
-    "voltage": ("supply_voltage", "voltage_measured_v", 1e-3),
+    "voltage": ("wire_voltage", "voltage_measured_v", 1e-3),
 }
 OUTPUT_UNITS = {"position": "m", "resistance": "ohm", "current": "A", "voltage": "V"}
 

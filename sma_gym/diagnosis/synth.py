@@ -223,7 +223,7 @@ def generate(spec: SynthSpec) -> tuple[MeasuredTrace, dict[str, Any]]:
         position=take(rec["position"], 0.0),
         resistance=take(rec["resistance"], math.nan) if spec.electrical else None,
         current=take(rec["current"], math.nan) if spec.electrical else None,
-        supply_voltage=take(rec["voltage"], math.nan) if spec.electrical else None,
+        wire_voltage=take(rec["voltage"], math.nan) if spec.electrical else None,
         conditions={"supply_voltage_v": p.driver.supply_voltage_v, "pwm_frequency_hz": p.driver.pwm_frequency_hz},
     )
     labels = {

@@ -1538,13 +1538,13 @@ def require_diagnosable(
         name
         for trace in fit_traces
         for name in outputs
-        if getattr(trace, name) is not None and np.ptp(np.asarray(getattr(trace, name), dtype=float)) > 0.0
+        if getattr(trace, name) is not None and _varies(getattr(trace, name))
     ]
     if fit_traces and not varying:
         names = ", ".join(str(t.path) for t in fit_traces)
         raise ValueError(
             f"{names}: no measured output varies that the diagnosis compares (position, resistance, current and "
-            "supply voltage are constant or absent over the whole data; a force column is not compared); expected a "
+            "wire voltage are constant or absent over the whole data; a force column is not compared); expected a "
             "trace in which the wire moves or its resistance changes: is the sensor connected?"
         )
     if fit_traces and all(float(np.max(np.asarray(t.duty, dtype=float))) <= 0.0 for t in fit_traces):
@@ -1557,16 +1557,37 @@ def require_diagnosable(
         )
 
 
+def _varies(values: np.ndarray) -> bool:
+    """Whether a column's finite values differ (the electrical columns are empty between
+    pulses: ``np.ptp`` of a column with one empty cell was NaN, read as constant)."""
+    finite = np.asarray(values, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    return finite.size > 1 and float(finite.max() - finite.min()) > 0.0
+
+
 GAP_FACTOR = 20.0
+RATE_NOTE_FACTOR = 2.0
+"""Files whose sample periods differ by more than this factor get a note (they weigh by samples)."""
 """A time step this many times the file's median step is reported as a gap."""
 
 
-def data_notes(traces: Sequence[MeasuredTrace]) -> list[str]:
-    """What a diagnosis of ``traces`` takes for granted that the files may contradict, one
-    sentence each (the command prints them; none stops the run): a force column, which is
-    not compared; no rest before the first heating, where every simulation starts; a gap in
-    the time stamps, across which the duty is held; a position that falls while heated."""
+def data_notes(traces: Sequence[MeasuredTrace], heldout: Sequence[MeasuredTrace] = ()) -> list[str]:
+    """What a diagnosis of ``traces`` (fitted) and ``heldout`` takes for granted that the
+    files may contradict, one sentence each (the command prints them; none stops the run):
+    fitted files of different sample rates, which weigh by their samples; a force column,
+    which is not compared; no rest before the first heating, where every simulation starts;
+    a gap in the time stamps, across which the duty is held; a position that falls while
+    heated."""
     notes = []
+    periods = {Path(t.path).name: t.sample_period_s for t in traces if len(t.t) > 1}
+    if periods and max(periods.values()) > RATE_NOTE_FACTOR * min(periods.values()):
+        dense, sparse = min(periods, key=periods.get), max(periods, key=periods.get)
+        notes.append(
+            f"{dense} is sampled every {periods[dense] * 1e3:.3g} ms and {sparse} every {periods[sparse] * 1e3:.3g} ms: "
+            f"files fitted together weigh by their samples, so {dense} counts about "
+            f"{periods[sparse] / periods[dense]:.0f}x as much per second; resample the files of one bench to one rate"
+        )
+    traces = [*traces, *heldout]
     for trace in traces:
         name = Path(trace.path).name
         if trace.force is not None:
@@ -1649,7 +1670,7 @@ def _decimated(trace: MeasuredTrace, control_period_s: float, say: Callable[[str
         position=trace.position[pick],
         **{
             name: None if getattr(trace, name) is None else getattr(trace, name)[pick]
-            for name in ("resistance", "current", "supply_voltage", "force")
+            for name in ("resistance", "current", "wire_voltage", "force")
         },
     )
 
