@@ -49,7 +49,9 @@ import csv
 import io
 import math
 import os
-from collections.abc import Mapping, Sequence
+import re
+from array import array
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -244,48 +246,21 @@ def _parse_float(text: str) -> float:
     return float(text)
 
 
-def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndarray], list[str], dict[str, np.ndarray]]:
-    """The CSV's columns by header name, the problems found reading them (a file that
-    cannot be read as a table at all raises at once), and per column the rows whose cell
-    is already reported (a wrong field count, a text that is no number), so that the value
-    checks do not report them again as missing."""
+_LINE = re.compile(r"[^\r\n]*(?:\r\n|\r|\n)|[^\r\n]+\Z")
+"""One line with its end, split as ``io.StringIO(newline="")`` splits them (\\n, \\r\\n, \\r)."""
+
+
+def _lines(text: str) -> Iterator[str]:
+    """The lines of ``text``, one at a time: the reader holds no list of rows (a 47 MB file
+    of 10^6 rows took 850 MB as lists of strings)."""
+    for match in _LINE.finditer(text):
+        yield match.group(0)
+
+
+def _check_header(header: list[str], first: list[str], where: str) -> None:
+    """Raise :class:`MeasuredDataError` with every problem of the header row (``first`` as
+    read, ``header`` its names stripped)."""
     problems: list[str] = []
-    try:
-        text = read_text(p, MAX_CSV_BYTES, "measured data")
-    except ValueError as err:
-        raise MeasuredDataError([str(err)]) from None
-    rows = []
-    reader = csv.reader(io.StringIO(text, newline=""))
-    try:
-        for row in reader:
-            line = len(rows) + 1
-            if reader.line_num != line:
-                # A quote left open swallows the lines after it into one field.
-                raise MeasuredDataError(
-                    [
-                        f"{where}:{line}: a double quote opened on this line runs on to line "
-                        f"{reader.line_num}; expected one row per line (a stray '\"'?)"
-                    ]
-                )
-            rows.append(row)
-    except csv.Error as err:
-        raise MeasuredDataError(
-            [f"{where}:{len(rows) + 1}: not readable as CSV ({err}; a stray '\"'?); expected one row per line"]
-        ) from None
-    if rows and any("\n" in field or "\r" in field for field in rows[-1]):
-        # The same on the last line: the quote runs on to the end of the file, taking the
-        # line's end (and any fields after it) into one field; line_num cannot tell.
-        raise MeasuredDataError(
-            [
-                f"{where}:{len(rows)}: a double quote opened on this line runs on to the end of the file; "
-                "expected one row per line (a stray '\"'?)"
-            ]
-        )
-    while rows and not any(field.strip() for field in rows[-1]):
-        rows.pop()  # blank lines at the end (editors and spreadsheets add them)
-    if not rows:
-        raise MeasuredDataError([f"{where}: empty file, expected a header row {','.join(REQUIRED)}"])
-    header = [h.strip() for h in rows[0]]
     separator = next((sep for sep in (";", "\t", "|") if len(header) == 1 and sep in header[0]), None)
     if separator is not None:
         # One column holding every name: another separator (spreadsheets in many locales use ';').
@@ -298,7 +273,7 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
         # One message, not one per column: the loader reads no comments.
         raise MeasuredDataError(
             [
-                f"{where}:1: {rows[0][0].strip()!r}... is a comment line; expected the header ({','.join(REQUIRED)},...) "
+                f"{where}:1: {first[0].strip()!r}... is a comment line; expected the header ({','.join(REQUIRED)},...) "
                 "on the first line (remarks belong in the sidecar's 'notes')"
             ]
         )
@@ -335,18 +310,62 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
         problems.append(f"{where}:1: duplicate column names in header ({shown_header})")
     if problems:
         raise MeasuredDataError(problems)
-    data_rows = rows[1:]
-    # One minimum in both messages (a header-only file was told 2, then the same file with
-    # two rows 20).
-    why = (
-        "" if min_rows <= 2 else " (the diagnosis fits more than ten samples after holding out the last 30 % of a file)"
-    )
-    if len(data_rows) < 2:
-        raise MeasuredDataError([f"{where}: {len(data_rows)} data row(s), expected at least {max(min_rows, 2)}{why}"])
-    if len(data_rows) < min_rows:  # reported with the file's other problems
-        problems.append(f"{where}: {len(data_rows)} data row(s), expected at least {min_rows}{why}")
-    columns: dict[str, np.ndarray] = {name: np.full(len(data_rows), math.nan) for name in header}
-    reported = {name: np.zeros(len(data_rows), dtype=bool) for name in header}
+
+
+def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndarray], list[str], dict[str, np.ndarray]]:
+    """The CSV's columns by header name, the problems found reading them (a file that
+    cannot be read as a table at all raises at once), and per column the rows whose cell
+    is already reported (a wrong field count, a text that is no number), so that the value
+    checks do not report them again as missing. Rows are parsed as they are read."""
+    problems: list[str] = []
+    try:
+        text = read_text(p, MAX_CSV_BYTES, "measured data")
+    except ValueError as err:
+        raise MeasuredDataError([str(err)]) from None
+    if not text.strip(" \t\r\n,"):
+        raise MeasuredDataError([f"{where}: empty file, expected a header row {','.join(REQUIRED)}"])
+    reader = csv.reader(_lines(text))
+    read = 0  # rows read, the header's included
+    last: list[str] = []
+
+    def rows() -> Iterator[list[str]]:
+        nonlocal read, last
+        try:
+            for row in reader:
+                read += 1
+                if reader.line_num != read:
+                    # A quote left open swallows the lines after it into one field.
+                    raise MeasuredDataError(
+                        [
+                            f"{where}:{read}: a double quote opened on this line runs on to line "
+                            f"{reader.line_num}; expected one row per line (a stray '\"'?)"
+                        ]
+                    )
+                last = row
+                yield row
+        except csv.Error as err:
+            raise MeasuredDataError(
+                [f"{where}:{read + 1}: not readable as CSV ({err}; a stray '\"'?); expected one row per line"]
+            ) from None
+
+    def check_last() -> None:
+        if any("\n" in field or "\r" in field for field in last):
+            # The same on the last line: the quote runs on to the end of the file, taking the
+            # line's end (and any fields after it) into one field; line_num cannot tell.
+            raise MeasuredDataError(
+                [
+                    f"{where}:{read}: a double quote opened on this line runs on to the end of the file; "
+                    "expected one row per line (a stray '\"'?)"
+                ]
+            )
+
+    stream = rows()
+    first = next(stream)
+    check_last()
+    header = [h.strip() for h in first]
+    _check_header(header, first, where)
+    values = {name: array("d") for name in header}
+    reported_rows: dict[str, list[int]] = {name: [] for name in header}
     # As the value checks: the first few of a kind are named, the rest counted (a file of
     # text in every row would otherwise print one line per row).
     shown = {"fields": 0, "number": 0}
@@ -359,23 +378,54 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
         else:
             hidden[kind] += 1
 
-    for i, row in enumerate(data_rows):
-        line = i + 2
+    n = 0  # data rows taken
+
+    def take(row: list[str]) -> None:
+        nonlocal n
+        line = n + 2
         if len(row) != len(header):
             report("fields", f"{where}:{line}: {len(row)} fields, expected {len(header)}")
             for name in header:
-                reported[name][i] = True
+                values[name].append(math.nan)
+                reported_rows[name].append(n)
+        else:
+            for name, text in zip(header, row):
+                try:
+                    values[name].append(_parse_float(text))
+                except ValueError:
+                    values[name].append(math.nan)
+                    report("number", f"{where}:{line}:{name}: {text!r} is not a number")
+                    reported_rows[name].append(n)
+        n += 1
+
+    blank: list[list[str]] = []  # blank rows not yet known to lie inside the data
+    for row in stream:
+        if not any(field.strip() for field in row):
+            blank.append(row)  # blank lines at the end (editors and spreadsheets add them) are dropped
             continue
-        for name, text in zip(header, row):
-            try:
-                columns[name][i] = _parse_float(text)
-            except ValueError:
-                report("number", f"{where}:{line}:{name}: {text!r} is not a number")
-                reported[name][i] = True
+        for pending in blank:
+            take(pending)
+        blank.clear()
+        take(row)
+    check_last()
+    # One minimum in both messages (a header-only file was told 2, then the same file with
+    # two rows 20).
+    why = (
+        "" if min_rows <= 2 else " (the diagnosis fits more than ten samples after holding out the last 30 % of a file)"
+    )
+    if n < 2:
+        raise MeasuredDataError([f"{where}: {n} data row(s), expected at least {max(min_rows, 2)}{why}"])
+    if n < min_rows:  # reported with the file's other problems
+        problems.append(f"{where}: {n} data row(s), expected at least {min_rows}{why}")
     if hidden["fields"]:
         problems.append(f"{where}: ... {hidden['fields']} more rows with the wrong number of fields")
     if hidden["number"]:
         problems.append(f"{where}: ... {hidden['number']} more cells that are not numbers")
+    columns = {name: np.array(values[name], dtype=float) for name in header}
+    reported = {}
+    for name in header:
+        reported[name] = np.zeros(n, dtype=bool)
+        reported[name][reported_rows[name]] = True
     return columns, problems, reported
 
 
