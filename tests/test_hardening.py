@@ -2108,3 +2108,23 @@ def test_agent_names_never_share_a_baselines_row_or_break_a_table_and_saved_path
     assert load_policy(tmp_path / "m.v1").name  # looked for m.zip
     with pytest.raises(ValueError, match=r"policy = None: expected the path"):
         load_policy(None)
+
+
+def test_files_of_one_name_in_two_folders_each_keep_their_row(tmp_path):
+    """``diagnose r1/run.csv r2/run.csv``: the gap per file (diagnosis.md, diagnosis.json) and
+    the cross-validation folds were keyed by the file's name, so the second replaced the first."""
+    import json
+
+    from sma_gym.cli import main
+
+    for folder, seed in (("r1", "1"), ("r2", "2")):
+        (tmp_path / folder).mkdir()
+        _synth(tmp_path / folder, "run.csv", "--seed", seed)
+    files = [str(tmp_path / "r1" / "run.csv"), str(tmp_path / "r2" / "run.csv")]
+    options = ["--max-rounds", "1", "--effects", "sensor_lag", "--threads", "1"]
+    assert main(["diagnose", *files, "--out", str(tmp_path / "d"), *options]) == 0
+    report = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
+    assert sorted(report["gap_by_file"]["nominal"]["fit"]) == sorted(files)
+    assert main(["diagnose", *files, "--cross-validate", "--out", str(tmp_path / "cv"), *options]) == 0
+    folds = json.loads((tmp_path / "cv" / "cross_validation.json").read_text())["folds"]
+    assert [f["held_out"] for f in folds] == files and [f["fitted"] for f in folds] == [files[1:], files[:1]]

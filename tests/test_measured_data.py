@@ -344,7 +344,11 @@ def test_an_output_with_empty_cells_varies_and_files_of_other_rates_get_a_note()
     duty = np.where((t > 0.5) & (t < 1.5), 0.3, 0.0)
     resistance = np.where(duty > 0, 4.0 - 0.2 * t, np.nan)
     flat = MeasuredTrace("r_only.csv", t, duty, np.zeros_like(t), resistance=resistance)
-    require_diagnosable([flat])  # refused before: "no measured output varies"
+    # Refused before as "no measured output varies" (position, resistance, ...): now for what it is.
+    with pytest.raises(ValueError, match="r_only.csv: position is 0 m in every row while the wire is heated"):
+        require_diagnosable([flat])
+    moving = MeasuredTrace("moving.csv", t, duty, 1e-3 * np.clip(t - 0.6, 0.0, None), resistance=resistance)
+    require_diagnosable([moving])
     sparse = MeasuredTrace("slow.csv", t[::10], duty[::10], np.zeros(200))
     (note,) = [n for n in data_notes([flat, sparse]) if "sampled every" in n]
     assert "r_only.csv is sampled every 1 ms and slow.csv every 10 ms" in note and "10x" in note
@@ -363,3 +367,24 @@ def test_rows_are_parsed_as_they_are_read_and_blank_lines_keep_their_meaning(tmp
     assert list(trace.duty) == [0.0, 0.5]
     with pytest.raises(MeasuredDataError, match="empty file"):
         load_trace(write(tmp_path / "blank.csv", "\n,,\n\n"))
+
+
+def test_a_quantised_reading_has_its_rounding_as_noise_and_a_stuck_one_is_refused():
+    """A resistance rounded to 0.1 ohm has third differences mostly 0: its noise was read as
+    the floor (0.5 mohm), and it outweighed the position in the fit (a right 'none' became
+    'unexplained'); a current of 0.4 A in every row took the 'corrected' model 3 mm off."""
+    from sma_gym.diagnosis.fitting import noise_level, quantisation_step
+    from sma_gym.diagnosis.workflow import require_diagnosable
+
+    rng = np.random.default_rng(0)
+    smooth = 3.5 + 0.3 * np.sin(np.linspace(0.0, 6.0, 2000)) + rng.normal(0.0, 1e-3, 2000)
+    rounded = np.round(smooth, 1)
+    assert quantisation_step(rounded) == pytest.approx(0.1) and quantisation_step(smooth) == 0.0
+    assert noise_level(rounded, 5e-4) == pytest.approx(0.1 / np.sqrt(12.0))
+    assert noise_level(smooth, 5e-4) == pytest.approx(1e-3, rel=0.2)  # unrounded: its own noise
+    t = 0.001 * np.arange(2000)
+    duty = np.where(t > 0.5, 0.3, 0.0)
+    x = 1e-3 * np.clip(t - 0.6, 0.0, None)
+    stuck = MeasuredTrace("stuck.csv", t, duty, x, current=np.where(duty > 0, 0.4, np.nan))
+    with pytest.raises(ValueError, match="stuck.csv: current is 0.4 A in every row while the wire is heated; a stuck"):
+        require_diagnosable([MeasuredTrace("ok.csv", t, duty, x)], [stuck])

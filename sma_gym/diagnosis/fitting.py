@@ -227,14 +227,31 @@ read 5.24). White noise of standard deviation s gives third differences of stand
 deviation s * sqrt(C(2k, k)) = s * sqrt(20)."""
 
 
+def quantisation_step(values: np.ndarray) -> float:
+    """The step of the grid the finite ``values`` lie on (a reading rounded to 0.1 ohm: 0.1),
+    or 0 if they lie on none coarser than their own spacing."""
+    u = np.unique(values[np.isfinite(values)])
+    if u.size < 2:
+        return 0.0
+    gaps = np.diff(u)
+    q = float(gaps.min())
+    ratio = gaps / q
+    # Every gap a whole number of steps (rounding leaves 1e-16-relative float error).
+    return q if float(np.max(np.abs(ratio - np.rint(ratio)))) < 1e-3 else 0.0
+
+
 def noise_level(values: np.ndarray, floor: float, order: int = NOISE_DIFFERENCE_ORDER) -> float:
-    """Robust white-noise estimate: MAD of the ``order``-th differences / sqrt(C(2 order, order))."""
+    """Robust white-noise estimate: MAD of the ``order``-th differences / sqrt(C(2 order, order)),
+    at least ``floor`` and the rounding error of a quantised reading (step / sqrt(12)): the
+    differences of a reading rounded to 0.1 ohm are mostly 0, so its noise was read as the
+    floor (0.5 mohm), and that output outweighed every other in the fit (a right 'none'
+    became 'unexplained')."""
     v = values[np.isfinite(values)]
     if v.size < 10:
         return floor
     d = np.diff(v, order)
     mad = 1.4826 * np.median(np.abs(d - np.median(d)))
-    return max(floor, mad / math.sqrt(math.comb(2 * order, order)))
+    return max(floor, mad / math.sqrt(math.comb(2 * order, order)), quantisation_step(v) / math.sqrt(12.0))
 
 
 def prepare(trace: MeasuredTrace, control_period_s: float, mask: np.ndarray | None = None) -> TraceData:

@@ -387,7 +387,7 @@ def diagnose(
         fit_data = [fitting.prepare(t, control_period_s) for t in fit_traces]
         held_data = [fitting.prepare(t, control_period_s) for t in heldout_traces]
         held_note = ("the file " if len(heldout_traces) == 1 else "the files ") + ", ".join(
-            t.name for t in heldout_traces
+            _labels([*fit_traces, *heldout_traces])[len(fit_traces) :]
         )
     else:
         fit_data, held_data = [], []
@@ -608,7 +608,7 @@ def diagnose(
         kept_as_given=kept_as_given,
         conditions=shared,
         differing_conditions={k: dict(zip(_labels(files), vs)) for k, vs in differing.items()},
-        held_out_files=[t.name for t in heldout_traces],
+        held_out_files=_labels(files)[len(fit_traces) :],
     )
 
 
@@ -1547,6 +1547,8 @@ def require_diagnosable(
             "wire voltage are constant or absent over the whole data; a force column is not compared); expected a "
             "trace in which the wire moves or its resistance changes: is the sensor connected?"
         )
+    for trace in (*fit_traces, *heldout_traces):
+        _require_no_stuck_output(trace)
     if fit_traces and all(float(np.max(np.asarray(t.duty, dtype=float))) <= 0.0 for t in fit_traces):
         # Only noise to fit: every model "explains" it, and a verdict of "no missing effect"
         # would be a finding about nothing.
@@ -1563,6 +1565,31 @@ def _varies(values: np.ndarray) -> bool:
     finite = np.asarray(values, dtype=float)
     finite = finite[np.isfinite(finite)]
     return finite.size > 1 and float(finite.max() - finite.min()) > 0.0
+
+
+def _require_no_stuck_output(trace: MeasuredTrace) -> None:
+    """Refuse a compared output that reads one value in every row of a file whose wire is
+    heated: a stuck or disconnected sensor (or a clamped wire). Its noise reads as the floor,
+    so the fit bent every parameter to it (a current column of 0.4 A throughout took the
+    position from 0.12 to 3.1 mm off, saved as the corrected model)."""
+    if float(np.max(np.asarray(trace.duty, dtype=float))) <= 0.0:
+        return  # never heated: a constant reading is what the wire does
+    for name, (attr, _, _) in fitting.OUTPUT_COLUMNS.items():
+        values = getattr(trace, attr)
+        if values is None:
+            continue
+        finite = np.asarray(values, dtype=float)
+        finite = finite[np.isfinite(finite)]
+        if finite.size > 10 and float(finite.max()) == float(finite.min()):
+            unit = fitting.OUTPUT_UNITS[name]
+            fix = (
+                "expected a trace in which the wire moves (a clamped wire is not a case the model covers)"
+                if attr == "position"
+                else "a stuck or disconnected sensor: remove the column"
+            )
+            raise ValueError(
+                f"{trace.path}: {attr} is {finite[0]:g} {unit} in every row while the wire is heated; {fix}"
+            )
 
 
 GAP_FACTOR = 20.0
@@ -1710,10 +1737,12 @@ def _gaps_by_file(
 ) -> dict[str, dict[str, dict[str, float]]]:
     """RMS per output of ``model`` on each file, fitted and held out separately."""
     out: dict[str, dict[str, dict[str, float]]] = {}
+    # Two files of one name (a/run.csv, b/run.csv) were one row: the second replaced the first.
+    names = iter(_labels([d.trace for d in (*fit_data, *held_data)]))
     for label, datasets in (("fit", fit_data), ("heldout", held_data)):
         for d in datasets:
             sim = fitting.simulate([model], [offset], d, dt)
-            out.setdefault(label, {})[d.trace.name] = fitting.rms_by_output(sim, d)
+            out.setdefault(label, {})[next(names)] = fitting.rms_by_output(sim, d)
     return out
 
 
@@ -1775,10 +1804,11 @@ def cross_validate(
     require_diagnosable(traces, (), control_period_s)
     nominal = nominal or ModelConfig()
     folds = []
+    labels = _labels(traces)
     for k, held in enumerate(traces):
         fit = [t for j, t in enumerate(traces) if j != k]
 
-        def say(message: str, name: str = held.name, k: int = k) -> None:
+        def say(message: str, name: str = labels[k], k: int = k) -> None:
             if progress is not None:
                 progress(f"fold {k + 1}/{len(traces)} (predict {name}): {message}")
 
@@ -1792,8 +1822,8 @@ def cross_validate(
         corrected_rms = fitting.rms_by_output(fitting.simulate([corrected], [offset], data, control_period_s), data)
         folds.append(
             {
-                "held_out": held.name,
-                "fitted": [t.name for t in fit],
+                "held_out": labels[k],
+                "fitted": [name for j, name in enumerate(labels) if j != k],
                 "verdict": result.verdict,
                 "effects_found": result.effects_found,
                 "carried": result.carried,
