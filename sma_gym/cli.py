@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import re
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -174,6 +175,7 @@ def _require_distinct_inputs(files: Sequence[str], heldout: Sequence[str]) -> No
     and held-out data that was also fitted is not held out: the same path, another path to
     the same file (a link) or a copy with the same bytes."""
     from sma_gym._io import sha256_file
+    from sma_gym.data.measured import MAX_CSV_BYTES
 
     how = {"path": "already given", "inode": "the same file", "sha256": "the same data"}
     seen: dict[tuple[str, object], str] = {}
@@ -184,8 +186,9 @@ def _require_distinct_inputs(files: Sequence[str], heldout: Sequence[str]) -> No
             if path.is_file():
                 st = path.stat()
                 keys.append(("inode", (st.st_dev, st.st_ino)))
-                with contextlib.suppress(OSError):  # unreadable: loading it names the problem
-                    keys.append(("sha256", sha256_file(path)))
+                if st.st_size <= MAX_CSV_BYTES:  # a bigger one is refused by the loader, not read whole here
+                    with contextlib.suppress(OSError):  # unreadable: loading it names the problem
+                        keys.append(("sha256", sha256_file(path)))
             for key in keys:
                 if key in seen:
                     raise ValueError(
@@ -207,7 +210,7 @@ def _require_out_free(args: argparse.Namespace, out: Path, fit: Any, held: Any, 
         earlier = previous_outputs(out)
     else:
         written = [out / name for name in outputs]
-        earlier = [p for p in written if p.exists()]
+        earlier = _previous_cross_validation(out)
     inputs = [Path(f) for f in (*args.files, *(args.heldout or []))]
     inputs += [side for side in (sidecar_path(p) for p in inputs) if side is not None]
     if args.model is not None and Path(args.model).is_file():
@@ -246,6 +249,21 @@ def _require_out_free(args: argparse.Namespace, out: Path, fit: Any, held: Any, 
         )
 
 
+def _previous_cross_validation(out: Path) -> list[Path]:
+    """The files an earlier ``--cross-validate`` wrote into ``out``: only if its
+    ``cross_validation.json`` is one (a user's file of that name was replaced by
+    ``--overwrite``)."""
+    import json
+
+    try:
+        data = json.loads((out / CROSS_VALIDATION_OUTPUTS[0]).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return []
+    if not isinstance(data, dict) or not isinstance(data.get("folds"), list):
+        return []
+    return [out / name for name in CROSS_VALIDATION_OUTPUTS if (out / name).is_file()]
+
+
 def _cross_validate(
     args: argparse.Namespace,
     fit: Any,
@@ -257,7 +275,7 @@ def _cross_validate(
     """``sma-gym diagnose --cross-validate``: leave one run out, table and JSON into ``out``."""
     import json
 
-    from sma_gym._io import locked_folder, write_json, write_text
+    from sma_gym._io import locked_folder, staged_outputs, write_json, write_text
     from sma_gym.diagnosis.report import cross_validation_table
     from sma_gym.diagnosis.workflow import cross_validate
     from sma_gym.provenance import provenance
@@ -265,8 +283,10 @@ def _cross_validate(
     with locked_folder(out):
         cv = cross_validate(fit, nominal, effects, progress=progress, max_rounds=args.max_rounds, threads=args.threads)
         table = cross_validation_table(cv)
-        write_json(out / "cross_validation.json", {**cv, "provenance": provenance()})
-        write_text(out / "cross_validation.md", "# Leave one run out\n\n" + table)
+        # Staged: an interrupt between the two files left a new JSON beside an old table.
+        with staged_outputs(out, "diagnose-cross-validate") as staging:
+            write_json(staging / CROSS_VALIDATION_OUTPUTS[0], {**cv, "provenance": provenance()})
+            write_text(staging / CROSS_VALIDATION_OUTPUTS[1], "# Leave one run out\n\n" + table)
     print(json.dumps(cv) if args.json else table, end="" if not args.json else "\n")
     return 0
 
@@ -400,7 +420,8 @@ def _warmup(args: argparse.Namespace) -> int:
 
     done = warm_up()
     where = f"cached in {done.cache_dir}" if done.cached else "not cached (no writable cache directory)"
-    print(f"compiled {len(done.paths)} paths in {done.seconds:.1f} s, {where}")
+    # "compiled or loaded": with a cache from an earlier process nothing is compiled.
+    print(f"compiled or loaded {len(done.paths)} paths in {done.seconds:.1f} s, {where}")
     return 0
 
 
@@ -488,9 +509,22 @@ def build_parser(commands: Sequence[Command] | None = None) -> argparse.Argument
         if not command.available:
             description = command.help
         p = sub.add_parser(command.name, help=help_text, description=description)
+        # argparse takes "-1e-6" for an option ("expected one argument"), its pattern of a
+        # negative number having no exponent: the value is then checked and named as any other.
+        p._negative_number_matcher = NEGATIVE_NUMBER
         command.add_arguments(p)
         p.set_defaults(func=command.run)
     return parser
+
+
+NEGATIVE_NUMBER = re.compile(r"^-(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?$|^-(?:inf|nan)$", re.IGNORECASE)
+"""What an argument that reads as a negative number looks like (``-5``, ``-.5``, ``-1e-6``)."""
+
+
+def _subparser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentParser:
+    """The parser of the command ``name``."""
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return action.choices[name]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -501,7 +535,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args, unknown = parser.parse_known_args(argv)
     command = next(c for c in commands if c.name == args.command)
     if unknown and command.available:
-        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
+        # The command's own usage, not the list of commands.
+        _subparser(parser, command.name).error(f"unrecognized arguments: {' '.join(unknown)}")
     try:
         with sigterm_as_interrupt():
             require(*command.needs, purpose=f"sma-gym {command.name}", extra=command.extra)
@@ -525,6 +560,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         with contextlib.suppress(OSError, ValueError):
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
         return 128 + 13  # the shell's code for SIGPIPE
+    except OSError as err:
+        # A full disk, a folder made read-only meanwhile: one line naming the file, not a
+        # traceback (what was written is whole or removed: the outputs are staged).
+        where = f"{err.filename}: " if err.filename else ""
+        print(f"sma-gym {args.command}: error: {where}{err.strerror or err}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

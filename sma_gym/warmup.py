@@ -25,23 +25,25 @@ class WarmUp:
     cached: bool
     """True when the compiled code was written to (or read from) an on-disk cache."""
     cache_dir: str
-    """Where numba keeps the cache (``NUMBA_CACHE_DIR`` or next to the package), or ``""``."""
+    """Where numba keeps the kernel's cache (as its locator chose it), or ``""``."""
     paths: tuple[str, ...]
     """The compiled paths exercised."""
 
 
 def _cache_dir() -> str:
-    import numba
-
+    """The folder numba's own locator chose for the kernel's cache (``NUMBA_CACHE_DIR``, the
+    package's ``__pycache__`` or the user cache, the first writable), or ``""`` without one:
+    read from the compiled function, not assumed (a read-only package's cache, in the user
+    cache, was reported next to the package; a ``NUMBA_CACHE_DIR`` numba could not use was
+    reported as the cache)."""
     from sma_gym._jit import caching_available
 
     if not caching_available():
         return ""
-    if numba.config.CACHE_DIR:
-        return str(numba.config.CACHE_DIR)
-    from pathlib import Path
+    from sma_gym.core import kernel
 
-    return str(Path(__file__).resolve().parent)
+    cache = getattr(kernel._advance, "_cache", None)  # numba's FunctionCache (a NullCache without one)
+    return str(getattr(cache, "_cache_path", "") or "")
 
 
 def warm_up() -> WarmUp:

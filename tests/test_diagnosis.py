@@ -366,7 +366,7 @@ def test_synth_cli_writes_data_sidecar_and_separate_labels(tmp_path, capsys):
     assert "--overwrite" in capsys.readouterr().err
     # A model file has no name diagnose could look up: the sidecar names none, and synth says so.
     mine = ModelConfig().with_actuator(**{"wire.diameter_m": 0.25e-3}).save(tmp_path / "mine.json")
-    assert main(["synth", "--out", str(tmp_path / "m.csv"), "--duration", "5", "--model", str(mine)]) == 0
+    assert main(["synth", "--out", str(tmp_path / "m.csv"), "--duration", "7", "--model", str(mine)]) == 0
     assert "model" not in json.loads((tmp_path / "m.csv.json").read_text())
     assert f"--model {mine}" in capsys.readouterr().err
     assert main(["synth", "--out", str(tmp_path / "t.csv"), "--effect", "warp"]) == 2

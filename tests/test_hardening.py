@@ -263,7 +263,7 @@ def test_diagnose_with_a_bad_thread_count_exits_2_and_writes_nothing(tmp_path, c
 def _synth(tmp_path: Path, name: str, *extra: str) -> Path:
     from sma_gym.cli import main
 
-    assert main(["synth", "--out", str(tmp_path / name), "--duration", "5", *extra]) == 0
+    assert main(["synth", "--out", str(tmp_path / name), "--duration", "7", *extra]) == 0
     return tmp_path / name
 
 
@@ -295,12 +295,12 @@ def test_synth_refuses_to_overwrite_any_of_its_outputs(tmp_path, capsys):
         for p in outputs:
             p.unlink(missing_ok=True)
         existing.write_text("mine")
-        assert main(["synth", "--out", str(csv), "--duration", "5", "--seed", "1"]) == 2
+        assert main(["synth", "--out", str(csv), "--duration", "7", "--seed", "1"]) == 2
         err = capsys.readouterr().err
         assert "--overwrite" in err and str(existing) in err
         assert existing.read_text() == "mine"
         assert sorted(tmp_path.iterdir()) == [existing]
-    assert main(["synth", "--out", str(csv), "--duration", "5", "--seed", "1", "--overwrite"]) == 0
+    assert main(["synth", "--out", str(csv), "--duration", "7", "--seed", "1", "--overwrite"]) == 0
     assert all(p.read_text() != "mine" for p in outputs)
 
 
@@ -531,6 +531,9 @@ def test_sb3_vec_env_honours_indices_and_refuses_fixed_attributes():
         (["--seed", "-1"], "--seed"),
         (["--actuator-seed", "-1"], "--actuator-seed"),
         (["--form", "uniform"], "--form"),  # a form without an effect was silently ignored
+        (["--position-noise", "-1e-6"], "--position-noise = -1e-06"),  # was "expected one argument"
+        # Its first step came 4.8 s in: a file of rest in which a diagnosis found "no missing effect".
+        (["--duration", "5"], "the wire is driven for 0.18 s only"),
     ],
 )
 def test_synth_rejects_out_of_range_options_and_writes_nothing(tmp_path, capsys, args, needle):
@@ -549,7 +552,7 @@ def test_ctrl_c_ends_a_command_with_a_line_not_a_traceback(tmp_path, capsys, mon
         raise KeyboardInterrupt
 
     monkeypatch.setattr(sma_gym.diagnosis.synth, "write", interrupted)
-    assert main(["synth", "--out", str(tmp_path / "s.csv"), "--duration", "5"]) == 130
+    assert main(["synth", "--out", str(tmp_path / "s.csv"), "--duration", "7"]) == 130
     assert capsys.readouterr().err == "sma-gym synth: interrupted\n"
     assert list(tmp_path.iterdir()) == []
 
@@ -620,7 +623,7 @@ def test_a_closed_stdout_ends_a_command_without_a_traceback(tmp_path, capsys, mo
         raise BrokenPipeError(32, "Broken pipe")
 
     monkeypatch.setattr(sma_gym.diagnosis.synth, "write", closed)
-    assert main(["synth", "--out", str(tmp_path / "s.csv"), "--duration", "5"]) == 141
+    assert main(["synth", "--out", str(tmp_path / "s.csv"), "--duration", "7"]) == 141
     assert capsys.readouterr().err == ""
     assert list(tmp_path.iterdir()) == []
 
@@ -664,7 +667,7 @@ def test_synth_actuator_seed_gives_another_run_of_the_same_actuator(tmp_path):
 def test_synth_writes_only_csv_files(tmp_path, capsys, name):
     from sma_gym.cli import main
 
-    assert main(["synth", "--out", str(tmp_path / name), "--duration", "5"]) == 2
+    assert main(["synth", "--out", str(tmp_path / name), "--duration", "7"]) == 2
     assert "expected a .csv file name" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
 
@@ -2128,3 +2131,37 @@ def test_files_of_one_name_in_two_folders_each_keep_their_row(tmp_path):
     assert main(["diagnose", *files, "--cross-validate", "--out", str(tmp_path / "cv"), *options]) == 0
     folds = json.loads((tmp_path / "cv" / "cross_validation.json").read_text())["folds"]
     assert [f["held_out"] for f in folds] == files and [f["fitted"] for f in folds] == [files[1:], files[:1]]
+    # An earlier cross-validation is replaced with --overwrite; a file of the user's that only
+    # shares its name never is (any cross_validation.md was taken for an earlier run's).
+    again = ["diagnose", *files, "--cross-validate", "--out", str(tmp_path / "cv"), *options]
+    assert main([*again, "--overwrite"]) == 0
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "cross_validation.md").write_text("my notes")
+    mine = ["diagnose", *files, "--cross-validate", "--out", str(tmp_path / "mine"), *options, "--overwrite"]
+    assert main(mine) == 2 and (tmp_path / "mine" / "cross_validation.md").read_text() == "my notes"
+
+
+def test_cli_names_a_write_failure_and_reads_negative_exponents_as_values(tmp_path, monkeypatch, capsys):
+    """A full disk gave a traceback (exit 1 either way); ``--position-noise -1e-6`` was taken
+    for an option ("expected one argument"), where ``-1e-6`` is a value to check and name;
+    an unknown option of a command printed the list of commands' usage."""
+    import errno
+    import os
+
+    from sma_gym.cli import main
+    from sma_gym.data import measured
+
+    def full(path, *args, **kwargs):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+    monkeypatch.setattr(measured, "write_text", full)
+    out = tmp_path / "s.csv"
+    assert main(["synth", "--out", str(out), "--duration", "7"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"sma-gym synth: error: {tmp_path}") and err.endswith(": No space left on device\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # nothing half-written
+    assert main(["synth", "--out", str(out), "--position-noise", "-1e-6"]) == 2
+    assert "--position-noise = -1e-06: expected a value in [0" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["fidelity", "--bogus"])
+    assert "usage: sma-gym fidelity" in capsys.readouterr().err

@@ -45,6 +45,12 @@ from sma_gym.model import ModelConfig, load_model, model_names
 from sma_gym.simulator import Simulator
 
 EXCITATIONS = ("steps", "ramps", "sine", "chirp", "random")
+MIN_STEPS_DURATION_S = 7.0
+"""A 'steps' file this long always holds a step of at least :data:`MIN_DRIVEN_S` (the first
+comes 3-6 s in)."""
+MIN_DRIVEN_S = 1.0
+"""Shortest time a synthetic file's reference asks for motion (the wire takes about a second
+to reach its transformation at 10 V)."""
 CONTROL_PERIOD_S = 1e-3
 KP_PER_M = 1000.0
 REST_STEPS = 1000  # 1 s at rest before the excitation starts
@@ -179,13 +185,23 @@ class SynthSpec:
         )
 
 
-def generate(spec: SynthSpec) -> tuple[MeasuredTrace, dict[str, Any]]:
-    """A measured trace and its labels."""
+def generate(spec: SynthSpec, min_driven_s: float = 0.0) -> tuple[MeasuredTrace, dict[str, Any]]:
+    """A measured trace and its labels; ``ValueError`` if the excitation asks for motion for
+    less than ``min_driven_s`` (``sma-gym synth``: :data:`MIN_DRIVEN_S`)."""
     rng = np.random.default_rng(spec.seed)
     actuator_rng = rng if spec.actuator_seed is None else np.random.default_rng(spec.actuator_seed)
     truth, perturbation = perturb(spec.truth(), spec.perturb, actuator_rng)
     stroke = truth.actuator.usable_stroke_m
     ref = excitation(spec.excitation, spec.duration_s, stroke, rng)
+    driven_s = np.count_nonzero(ref > 0.0) * CONTROL_PERIOD_S
+    if driven_s < min_driven_s:
+        # 'steps' rests 2-5 s after its first second: a short file was all rest, and a
+        # diagnosis of it found "no missing effect" in sensor noise.
+        raise ValueError(
+            f"--excitation {spec.excitation} over --duration {spec.duration_s:g} s: the wire is driven for "
+            f"{driven_s:g} s only (its first step comes at the end); expected a longer --duration (at least "
+            f"{MIN_STEPS_DURATION_S:g} s for steps) or another excitation"
+        )
     sim = Simulator(truth, control_period_s=CONTROL_PERIOD_S, rng=rng)
     p = truth.actuator
     duty_min = 0.0
@@ -261,7 +277,9 @@ def check_outputs(path: Path, overwrite: bool) -> None:
         check_output_file(target, "--out", overwrite=overwrite)
 
 
-def write(spec: SynthSpec, path: Path, overwrite: bool = False, model_name: str | None = None) -> tuple[Path, Path]:
+def write(
+    spec: SynthSpec, path: Path, overwrite: bool = False, model_name: str | None = None, min_driven_s: float = 0.0
+) -> tuple[Path, Path]:
     """Write ``path`` (CSV), its sidecar ``path.json`` and the labels ``<stem>.labels.json``.
 
     ``model_name``, a preset or twin name, goes into the sidecar as ``"model"``, as a lab
@@ -272,7 +290,7 @@ def write(spec: SynthSpec, path: Path, overwrite: bool = False, model_name: str 
     (or none) and two runs on one ``path`` never mix (the labels are the benchmarks' truth).
     """
     check_outputs(path, overwrite)
-    trace, labels = generate(spec)
+    trace, labels = generate(spec, min_driven_s)
     if model_name is not None:
         trace = replace(trace, conditions={**trace.conditions, "model": model_name})
     targets = output_paths(path)
@@ -387,7 +405,9 @@ def main(args) -> int:
     # A file's model is the nominal model a lab would name; a model JSON file has no name
     # diagnose could look up, so only presets and twins are named.
     named = args.model if args.model in model_names() else None
-    csv_path, labels_path = write(spec, Path(args.out), overwrite=args.overwrite, model_name=named)
+    csv_path, labels_path = write(
+        spec, Path(args.out), overwrite=args.overwrite, model_name=named, min_driven_s=MIN_DRIVEN_S
+    )
     print(f"wrote {csv_path} (+ sidecar) and labels {labels_path}")
     if named is None:
         print(
