@@ -69,7 +69,7 @@ def run(repeats: int = 3) -> dict[str, dict[str, float]]:
 
 def main(as_json: bool = False, repeats: int = 3) -> int:
     if not 1 <= repeats <= MAX_REPEATS:
-        raise ValueError(f"repeats = {repeats!r}: expected an integer in [1, {MAX_REPEATS}]")
+        raise ValueError(f"--repeats {repeats!r}: expected an integer in [1, {MAX_REPEATS}]")
     result = run(repeats)
     if as_json:
         print(json.dumps(result))

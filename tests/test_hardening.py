@@ -534,6 +534,7 @@ def test_sb3_vec_env_honours_indices_and_refuses_fixed_attributes():
         (["--position-noise", "-1e-6"], "--position-noise = -1e-06"),  # was "expected one argument"
         # Its first step came 4.8 s in: a file of rest in which a diagnosis found "no missing effect".
         (["--duration", "5"], "the wire is driven for 0.18 s only"),
+        (["--out", " "], "--out ' ': empty, expected a .csv file name"),  # named '.'
     ],
 )
 def test_synth_rejects_out_of_range_options_and_writes_nothing(tmp_path, capsys, args, needle):
@@ -765,7 +766,9 @@ def test_diagnose_shows_progress_and_decimates_oversampled_files(tmp_path, capsy
     small = _decimated(dense, 1e-3, said.append)
     assert len(small.t) <= 5_001 and "keeping every 10th" in said[0]
     long = type(trace)(path="long.csv", t=np.arange(0, 4000.0, 0.25), duty=np.zeros(16000), position=np.zeros(16000))
-    with pytest.raises(ValueError, match="at most 1800 s"):
+    with pytest.raises(
+        ValueError, match=r"at most 1800 s .* \(or is the time in milliseconds\? its median step is 0.25 s\)"
+    ):
         _decimated(long, 1e-3, said.append)
     from sma_gym.cli import main
 
@@ -1181,7 +1184,7 @@ def test_evaluate_and_bench_bound_their_repeat_counts(capsys, monkeypatch):
     assert main(["evaluate", "--experiments", "8", "--seeds", "1000000"]) == 2
     assert "--seeds 1000000: expected an integer in [1, 100]" in capsys.readouterr().err
     assert main(["bench", "--repeats", "1000000"]) == 2
-    assert "repeats = 1000000: expected an integer in [1, 100]" in capsys.readouterr().err
+    assert "--repeats 1000000: expected an integer in [1, 100]" in capsys.readouterr().err
 
 
 def test_policy_paths_and_controller_observations_are_named_when_wrong(tmp_path):

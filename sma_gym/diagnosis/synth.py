@@ -379,6 +379,8 @@ def check_spec(spec: SynthSpec) -> None:
 
 
 def main(args) -> int:
+    if not args.out.strip():  # Path('') is '.', which the message then named
+        raise ValueError(f"--out {args.out!r}: empty, expected a .csv file name")
     name, values = parse_effect(args.effect)
     if name is not None and args.form not in EFFECTS[name].forms:
         raise ValueError(f"--form {args.form!r}: effect {name!r} has forms {EFFECTS[name].forms}")

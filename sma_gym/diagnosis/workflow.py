@@ -1672,6 +1672,12 @@ def _require_file(trace: MeasuredTrace, control_period_s: float) -> None:
             f"{trace.path}: {trace.duration_s:.0f} s of data; diagnosis accepts at most {MAX_DURATION_S:.0f} s per "
             "file (each candidate re-simulates every 1 ms step many times); cut the file to the part with the "
             "behaviour to explain"
+            # A time in milliseconds at 2.5 kHz or more passes the loader's check (a median step under 0.5).
+            + (
+                f" (or is the time in milliseconds? its median step is {trace.sample_period_s:g} s)"
+                if trace.sample_period_s >= 0.01
+                else ""
+            )
         )
 
 
