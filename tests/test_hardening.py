@@ -1849,11 +1849,11 @@ def test_each_command_removes_only_its_own_listed_outputs_and_a_folder_in_the_wa
 
 def test_conditions_of_two_files_that_share_a_name_are_both_reported():
     from sma_gym.data.measured import MeasuredTrace
-    from sma_gym.diagnosis.workflow import _labels
+    from sma_gym.diagnosis.workflow import file_labels
 
     files = [MeasuredTrace(f"{d}/run.csv", np.zeros(1), np.zeros(1), np.zeros(1)) for d in ("a", "b")]
     files.append(MeasuredTrace("c/other.csv", np.zeros(1), np.zeros(1), np.zeros(1)))
-    assert _labels(files) == ["a/run.csv", "b/run.csv", "other.csv"]
+    assert file_labels(files) == ["a/run.csv", "b/run.csv", "other.csv"]
 
 
 def test_a_stop_during_the_last_renames_waits_until_they_are_all_done(tmp_path, monkeypatch, request):
@@ -2131,6 +2131,7 @@ def test_files_of_one_name_in_two_folders_each_keep_their_row(tmp_path):
     assert main(["diagnose", *files, "--out", str(tmp_path / "d"), *options]) == 0
     report = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
     assert sorted(report["gap_by_file"]["nominal"]["fit"]) == sorted(files)
+    assert f"Fitted: {files[0]}, {files[1]}." in (tmp_path / "d" / "diagnosis.md").read_text()
     assert main(["diagnose", *files, "--cross-validate", "--out", str(tmp_path / "cv"), *options]) == 0
     folds = json.loads((tmp_path / "cv" / "cross_validation.json").read_text())["folds"]
     assert [f["held_out"] for f in folds] == files and [f["fitted"] for f in folds] == [files[1:], files[:1]]

@@ -24,6 +24,7 @@ from sma_gym.diagnosis.workflow import (
     SEPARATION_BLOCKS,
     SEPARATION_T,
     Diagnosis,
+    file_labels,
 )
 from sma_gym.model import ModelConfig
 from sma_gym.plotting import new_figure, save
@@ -50,9 +51,11 @@ def write_report(
     names for the corrected model (where the files end up, when ``out`` is a staging folder)."""
     shown = out if shown_out is None else shown_out
     plots = []
+    names = iter(file_labels([*fit_traces, *heldout_traces]))  # a/run.csv, b/run.csv told apart
     for label, traces in (("fit", fit_traces), ("heldout", heldout_traces)):
         for k, trace in enumerate(traces):
-            plots.append(_plot_trace(trace, nominal, result, _trace_plot_path(out, label, k, trace), label))
+            path = _trace_plot_path(out, label, k, trace)
+            plots.append(_plot_trace(trace, next(names), nominal, result, path, label))
     plots.append(_plot_regimes(result, out / "residuals_by_regime.png"))
     if result.rounds:
         plots.append(_plot_rounds(result, out / "gap_by_round.png"))
@@ -73,7 +76,7 @@ def write_report(
         "",
         headline,
         "",
-        f"Nominal model: `{nominal.name}`. Fitted: {', '.join(t.name for t in fit_traces)}. Held out: {result.held_out}.",
+        f"Nominal model: `{nominal.name}`. Fitted: {', '.join(file_labels([*fit_traces, *heldout_traces])[: len(fit_traces)])}. Held out: {result.held_out}.",
         f"Corrected model: `corrected_model.json` (`gymnasium.make(id, model={str(shown / 'corrected_model.json')!r})` "
         f"from where the command ran). Took {result.seconds:.0f} s."
         + (
@@ -317,7 +320,9 @@ def _plot_rounds(result: Diagnosis, path: Path) -> Path:
     return save(fig, path)
 
 
-def _plot_trace(trace: MeasuredTrace, nominal: ModelConfig, result: Diagnosis, path: Path, label: str) -> Path:
+def _plot_trace(
+    trace: MeasuredTrace, name_shown: str, nominal: ModelConfig, result: Diagnosis, path: Path, label: str
+) -> Path:
     data = fitting.prepare(trace, CONTROL_PERIOD_S)
     sims = fitting.simulate([nominal, result.corrected_model], [0.0, 0.0], data, CONTROL_PERIOD_S)
     outputs = list(data.outputs)[:2]
@@ -329,7 +334,7 @@ def _plot_trace(trace: MeasuredTrace, nominal: ModelConfig, result: Diagnosis, p
         ax.plot(t, data.outputs[name] * scale, "k", lw=1.0, label="measured")
         ax.plot(t, sims[name][:, 0] * scale, "C0", lw=1.0, label="nominal")
         ax.plot(t, sims[name][:, 1] * scale, "C3", lw=1.0, label="corrected")
-        ax.set(ylabel=f"{name} [{unit}]", title=f"{trace.name} ({label})" if k == 0 else "")
+        ax.set(ylabel=f"{name} [{unit}]", title=f"{name_shown} ({label})" if k == 0 else "")
         ax.legend(fontsize=8)
     ax = axes[len(outputs), 0]
     scale, unit = _SCALE["position"]

@@ -387,7 +387,7 @@ def diagnose(
         fit_data = [fitting.prepare(t, control_period_s) for t in fit_traces]
         held_data = [fitting.prepare(t, control_period_s) for t in heldout_traces]
         held_note = ("the file " if len(heldout_traces) == 1 else "the files ") + ", ".join(
-            _labels([*fit_traces, *heldout_traces])[len(fit_traces) :]
+            file_labels([*fit_traces, *heldout_traces])[len(fit_traces) :]
         )
     else:
         fit_data, held_data = [], []
@@ -607,12 +607,12 @@ def diagnose(
         carried=carried,
         kept_as_given=kept_as_given,
         conditions=shared,
-        differing_conditions={k: dict(zip(_labels(files), vs)) for k, vs in differing.items()},
-        held_out_files=_labels(files)[len(fit_traces) :],
+        differing_conditions={k: dict(zip(file_labels(files), vs)) for k, vs in differing.items()},
+        held_out_files=file_labels(files)[len(fit_traces) :],
     )
 
 
-def _labels(files: Sequence[MeasuredTrace]) -> list[str]:
+def file_labels(files: Sequence[MeasuredTrace]) -> list[str]:
     """Each file's name, or its path where two files share a name (``a/run.csv``, ``b/run.csv``)."""
     names = [t.name for t in files]
     return [t.name if names.count(t.name) == 1 else str(t.path) for t in files]
@@ -631,7 +631,9 @@ def _corrected_model(
     if shared:
         notes += "; the files' conditions: " + ", ".join(f"{k} = {v:g}" for k, v in shared.items())
     for key, values in differing.items():
-        given = ", ".join(f"{f} " + ("not given" if v is None else f"{v:g}") for f, v in zip(_labels(files), values))
+        given = ", ".join(
+            f"{f} " + ("not given" if v is None else f"{v:g}") for f, v in zip(file_labels(files), values)
+        )
         kept = fitting.condition_value(ModelConfig(actuator), key)
         notes += (
             f"; the files differ in {key} ({given}): each was fitted at its own, the model keeps {kept:g} "
@@ -1744,7 +1746,7 @@ def _gaps_by_file(
     """RMS per output of ``model`` on each file, fitted and held out separately."""
     out: dict[str, dict[str, dict[str, float]]] = {}
     # Two files of one name (a/run.csv, b/run.csv) were one row: the second replaced the first.
-    names = iter(_labels([d.trace for d in (*fit_data, *held_data)]))
+    names = iter(file_labels([d.trace for d in (*fit_data, *held_data)]))
     for label, datasets in (("fit", fit_data), ("heldout", held_data)):
         for d in datasets:
             sim = fitting.simulate([model], [offset], d, dt)
@@ -1810,7 +1812,7 @@ def cross_validate(
     require_diagnosable(traces, (), control_period_s)
     nominal = nominal or ModelConfig()
     folds = []
-    labels = _labels(traces)
+    labels = file_labels(traces)
     for k, held in enumerate(traces):
         fit = [t for j, t in enumerate(traces) if j != k]
 
