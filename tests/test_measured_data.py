@@ -386,5 +386,11 @@ def test_a_quantised_reading_has_its_rounding_as_noise_and_a_stuck_one_is_refuse
     duty = np.where(t > 0.5, 0.3, 0.0)
     x = 1e-3 * np.clip(t - 0.6, 0.0, None)
     stuck = MeasuredTrace("stuck.csv", t, duty, x, current=np.where(duty > 0, 0.4, np.nan))
-    with pytest.raises(ValueError, match="stuck.csv: current is 0.4 A in every row while the wire is heated; a stuck"):
+    with pytest.raises(ValueError, match="stuck.csv: current is 0.4 A in every row while the wire moves 1.4 mm"):
         require_diagnosable([MeasuredTrace("ok.csv", t, duty, x)], [stuck])
+    # An ideal supply holds the wire's voltage: constant is no stuck sensor; nor is a constant
+    # current where the wire never transformed (its resistance hardly changes).
+    volts = np.where(duty > 0, 10.0, np.nan)
+    require_diagnosable([MeasuredTrace("v.csv", t, duty, x, wire_voltage=volts)])
+    still = np.where(t > 1.0, 2e-4, 0.0)
+    require_diagnosable([MeasuredTrace("warm.csv", t, duty, still, current=np.where(duty > 0, 0.4, np.nan))])

@@ -1569,29 +1569,38 @@ def _varies(values: np.ndarray) -> bool:
     return finite.size > 1 and float(finite.max() - finite.min()) > 0.0
 
 
+STUCK_CHECK_STROKE_M = 0.5e-3
+"""A file whose position moves this much has transformed: its resistance and current change
+with it (by several per cent), so a constant reading of either is a stuck sensor."""
+
+
 def _require_no_stuck_output(trace: MeasuredTrace) -> None:
-    """Refuse a compared output that reads one value in every row of a file whose wire is
-    heated: a stuck or disconnected sensor (or a clamped wire). Its noise reads as the floor,
-    so the fit bent every parameter to it (a current column of 0.4 A throughout took the
-    position from 0.12 to 3.1 mm off, saved as the corrected model)."""
+    """Refuse a compared output that reads one value in every row where the physics says it
+    cannot: a position while the wire is heated (a stuck or disconnected sensor, or a clamped
+    wire), a resistance or current while the wire moves (it transforms, so both change). Its
+    noise read as the floor, and the fit bent every parameter to it (a current column of
+    0.4 A throughout took the position from 0.12 to 3.1 mm off, saved as the corrected
+    model). The wire's voltage is not checked: an ideal supply holds it constant."""
     if float(np.max(np.asarray(trace.duty, dtype=float))) <= 0.0:
         return  # never heated: a constant reading is what the wire does
-    for name, (attr, _, _) in fitting.OUTPUT_COLUMNS.items():
+    position = np.asarray(trace.position, dtype=float)
+    moved = float(np.nanmax(position) - np.nanmin(position))
+    transformed = moved > STUCK_CHECK_STROKE_M
+    for attr, must_vary in (("position", True), ("resistance", transformed), ("current", transformed)):
         values = getattr(trace, attr)
-        if values is None:
+        if values is None or not must_vary:
             continue
         finite = np.asarray(values, dtype=float)
         finite = finite[np.isfinite(finite)]
         if finite.size > 10 and float(finite.max()) == float(finite.min()):
-            unit = fitting.OUTPUT_UNITS[name]
-            fix = (
-                "expected a trace in which the wire moves (a clamped wire is not a case the model covers)"
-                if attr == "position"
-                else "a stuck or disconnected sensor: remove the column"
-            )
-            raise ValueError(
-                f"{trace.path}: {attr} is {finite[0]:g} {unit} in every row while the wire is heated; {fix}"
-            )
+            unit = {"position": "m", "resistance": "ohm", "current": "A"}[attr]
+            if attr == "position":
+                why = "while the wire is heated"
+                fix = "expected a trace in which the wire moves (a clamped wire is not a case the model covers)"
+            else:
+                why = f"while the wire moves {moved * 1e3:.3g} mm (it transforms, which changes resistance and current)"
+                fix = "a stuck or disconnected sensor: remove the column"
+            raise ValueError(f"{trace.path}: {attr} is {finite[0]:g} {unit} in every row {why}; {fix}")
 
 
 GAP_FACTOR = 20.0
