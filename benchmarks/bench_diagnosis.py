@@ -115,7 +115,9 @@ from sma_gym.effects import EFFECTS
 from sma_gym.model import ModelConfig
 
 
-def case(effect: str | None, seed: int, max_rounds: int = DEFAULT_MAX_ROUNDS) -> tuple[str, float]:
+def case(
+    effect: str | None, seed: int, max_rounds: int = DEFAULT_MAX_ROUNDS, threads: int | None = None
+) -> tuple[str, float]:
     """One case of the default benchmark: the verdict as a label, and the seconds it took."""
     form = "default"
     if effect is not None:
@@ -129,7 +131,7 @@ def case(effect: str | None, seed: int, max_rounds: int = DEFAULT_MAX_ROUNDS) ->
         SynthSpec(model, effect=effect, form=form, excitation="sine", duration_s=40.0, perturb=0.05, seed=seed)
     )
     start = time.perf_counter()
-    result = diagnose([fit], [held], model, max_rounds=max_rounds)
+    result = diagnose([fit], [held], model, max_rounds=max_rounds, threads=threads)
     elapsed = time.perf_counter() - start
     return answer_label(result), elapsed
 
@@ -145,14 +147,14 @@ def answer_label(result: Diagnosis) -> str:
     return result.verdict
 
 
-def run(seeds: int, max_rounds: int = DEFAULT_MAX_ROUNDS) -> dict:
+def run(seeds: int, max_rounds: int = DEFAULT_MAX_ROUNDS, threads: int | None = None) -> dict:
     """The default benchmark: every truth for ``seeds`` seeds at fixed settings."""
     truths = ["none", *EFFECTS]
     rows: dict[str, list[str]] = {t: [] for t in truths}
     times = []
     for seed in range(seeds):
         for truth in truths:
-            answer, elapsed = case(None if truth == "none" else truth, 100 + seed, max_rounds)
+            answer, elapsed = case(None if truth == "none" else truth, 100 + seed, max_rounds, threads)
             rows[truth].append(answer)
             times.append(elapsed)
             print(f"seed {seed} truth {truth:22s} -> {answer}  ({elapsed:.0f} s)", flush=True)
@@ -365,14 +367,14 @@ def named_effects(result: Diagnosis) -> list[str]:
     return []
 
 
-def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int) -> dict[str, Any]:
+def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int, threads: int | None = None) -> dict[str, Any]:
     """Generate, diagnose and score one grid case; an exception is recorded, not raised."""
     record: dict[str, Any] = asdict(case) | {"effect_values": case.effect_values()}
     t0 = time.perf_counter()
     try:
         fit, held = grid_data(case, nominal)
         t1 = time.perf_counter()
-        result = diagnose([fit], [held], nominal, max_rounds=max_rounds)
+        result = diagnose([fit], [held], nominal, max_rounds=max_rounds, threads=threads)
     except Exception as exc:
         record.update(
             answer=f"error: {type(exc).__name__}: {exc}",
@@ -604,6 +606,7 @@ def run_grid(
     max_rounds: int = DEFAULT_MAX_ROUNDS,
     budget_s: float = math.inf,
     first: int = 0,
+    threads: int | None = None,
 ) -> dict[str, Any]:
     """Draw, run and summarise cases ``first``..``n - 1`` of the grid; one line per case on
     stderr as it finishes (``first`` continues a run cut short: see :func:`merge`)."""
@@ -617,7 +620,7 @@ def run_grid(
                 f"budget of {budget_s / 60:.0f} min spent: {len(records)} of {n} cases run", file=sys.stderr, flush=True
             )
             break
-        r = run_case(case, nominal, max_rounds)
+        r = run_case(case, nominal, max_rounds, threads)
         records.append(r)
         print(
             f"[{(time.perf_counter() - started) / 60:5.1f} min] case {case.index:3d} {case.generator:11s} truth {case.truth:21s} "
@@ -753,7 +756,11 @@ def classify_clean(verdict: str) -> str:
 
 
 def run_datasheet(
-    n: int, seed: int = 0, max_rounds: int = DEFAULT_MAX_ROUNDS, budget_s: float = math.inf
+    n: int,
+    seed: int = 0,
+    max_rounds: int = DEFAULT_MAX_ROUNDS,
+    budget_s: float = math.inf,
+    threads: int | None = None,
 ) -> dict[str, Any]:
     """Run the ``--datasheet`` cases (one line per case on stderr) and summarise them."""
     nominal = ModelConfig()
@@ -783,6 +790,7 @@ def run_datasheet(
             [trace(case.heldout_excitation, HELDOUT_DURATION_S)],
             nominal,
             max_rounds=max_rounds,
+            threads=threads,
         )
         named = named_effects(result)
         first = result.rounds[0] if result.rounds else {}
@@ -943,7 +951,12 @@ def pair_data(case: PairCase, nominal: ModelConfig) -> tuple[MeasuredTrace, Meas
 
 
 def pair_floor(
-    case: PairCase, nominal: ModelConfig, fit: MeasuredTrace, held: MeasuredTrace, perturbation: dict[str, float]
+    case: PairCase,
+    nominal: ModelConfig,
+    fit: MeasuredTrace,
+    held: MeasuredTrace,
+    perturbation: dict[str, float],
+    threads: int | None = None,
 ) -> float:
     """What the data of ``case`` allow, apart from the verdict rules and the search: the
     held-out normalised RMS (1 = the noise) of the truth's own model, both hidden effects in
@@ -956,8 +969,9 @@ def pair_floor(
     can end lower: measured 1.1-1.3x lower on five cases of seed 53, all with a friction or a settling), only a sign that the
     data or the refit set, not the rules, keep that case from the noise."""
     dt = CONTROL_PERIOD_S
-    problem = fitting.Problem(nominal, [fitting.prepare(fit, dt)], dt, fitting.default_threads())
-    held_problem = fitting.Problem(nominal, [fitting.prepare(held, dt)], dt, fitting.default_threads())
+    threads = fitting.default_threads() if threads is None else threads
+    problem = fitting.Problem(nominal, [fitting.prepare(fit, dt)], dt, threads)
+    held_problem = fitting.Problem(nominal, [fitting.prepare(held, dt)], dt, threads)
     params = problem.nominal_parameters() + tuple(
         p for e in case.truth for p in fitting.effect_parameters(e, _alternative_form(e))
     )
@@ -989,6 +1003,7 @@ def run_pairs(
     budget_s: float = math.inf,
     only: Sequence[int] | None = None,
     floor: bool = False,
+    threads: int | None = None,
 ) -> dict[str, Any]:
     """Run ``n`` two-effect cases and summarise: both named, confident wrong names, the
     held-out gap at the last round against the noise. ``only``: run just these case indices
@@ -1011,7 +1026,7 @@ def run_pairs(
         t0 = time.perf_counter()
         try:
             fit, held, perturbation = pair_data(case, nominal)
-            result = diagnose([fit], [held], nominal, max_rounds=max_rounds)
+            result = diagnose([fit], [held], nominal, max_rounds=max_rounds, threads=threads)
         except Exception as exc:
             record.update(answer=f"error: {type(exc).__name__}: {exc}", category="miss", named=[], seconds=0.0)
         else:
@@ -1030,7 +1045,7 @@ def run_pairs(
                 seconds=time.perf_counter() - t0,
             )
             if floor:
-                record["heldout_floor"] = pair_floor(case, nominal, fit, held, perturbation)
+                record["heldout_floor"] = pair_floor(case, nominal, fit, held, perturbation, threads)
         records.append(record)
         print(
             f"[{(time.perf_counter() - started) / 60:5.1f} min] pair {case.index:2d} {case.first}+{case.second} "
@@ -1345,7 +1360,11 @@ def main() -> int:
         "--merge", type=Path, nargs="+", metavar="JSON", help="report on saved --grid --json runs together, run nothing"
     )
     parser.add_argument(
-        "--threads", type=int, default=None, help="real: threads of the diagnosis (default: the cores, at most 8)"
+        "--threads",
+        type=int,
+        default=None,
+        help="threads of each diagnosis (default: the cores the process may run on, at most 8; it was read by --real "
+        "only until 2026-12-07)",
     )
     parser.add_argument(
         "--real",
@@ -1378,7 +1397,9 @@ def main() -> int:
                 parser.error(f"--cases {args.cases!r}: expected comma-separated case indices, e.g. 2,5,8")
             if any(not 0 <= c < args.pairs for c in only):
                 parser.error(f"--cases {args.cases!r}: expected case indices from 0 to {args.pairs - 1}")
-        result = run_pairs(args.pairs, args.seed, args.max_rounds, args.budget_min * 60.0, only, args.floor)
+        result = run_pairs(
+            args.pairs, args.seed, args.max_rounds, args.budget_min * 60.0, only, args.floor, args.threads
+        )
         markdown = pairs_markdown(result)
         if args.out is not None:
             args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -1386,7 +1407,7 @@ def main() -> int:
         print(json.dumps(result, indent=2) if args.json else markdown)
         return 0
     if args.datasheet:
-        result = run_datasheet(args.datasheet, args.seed, args.max_rounds, args.budget_min * 60.0)
+        result = run_datasheet(args.datasheet, args.seed, args.max_rounds, args.budget_min * 60.0, args.threads)
         markdown = datasheet_markdown(result)
         if args.out is not None:
             args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -1398,14 +1419,16 @@ def main() -> int:
         if args.merge:
             result = merge([json.loads(path.read_text()) for path in args.merge])
         else:
-            result = run_grid(args.grid, args.seed, generators, args.max_rounds, args.budget_min * 60.0, args.first)
+            result = run_grid(
+                args.grid, args.seed, generators, args.max_rounds, args.budget_min * 60.0, args.first, args.threads
+            )
         markdown = grid_markdown(result)
         if args.out is not None:
             args.out.parent.mkdir(parents=True, exist_ok=True)
             args.out.write_text(markdown)
         print(json.dumps(result, indent=2) if args.json else markdown)
         return 0
-    result = run(args.seeds, args.max_rounds)
+    result = run(args.seeds, args.max_rounds, args.threads)
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
