@@ -53,7 +53,7 @@ from sma_gym.electrical.multiplexer import scale_to_budget
 from sma_gym.envs import task
 from sma_gym_agents.card import ALLOCATIONS
 from sma_gym_agents.controllers import ControllerSpec
-from sma_gym_agents.policies import ControllerPolicy, env_attr
+from sma_gym_agents.policies import ControllerPolicy, env_attr, episode_starts
 
 
 def _require_scheme(env: Any, scheme: str, policy: str) -> None:
@@ -181,7 +181,7 @@ class PriorityAllocator(BudgetAllocator):
             self._lead, self._held = np.full(n_batch, -1), np.zeros(n_batch, dtype=int)
             self._benched = np.zeros(ask.shape, dtype=int)
         if episode_start is not None:
-            starting = np.broadcast_to(np.asarray(episode_start, dtype=bool).reshape(-1), (n_batch,))
+            starting = episode_starts(episode_start, n_batch, broadcast=True)
             self._lead[starting] = -1
             self._benched[starting] = 0
         banks = np.arange(n_batch)

@@ -107,6 +107,32 @@ def require_raw_observations(env: Any, who: str) -> int | None:
     return widths[-1] if widths else None
 
 
+def episode_starts(episode_start: Any, n_batch: int, *, broadcast: bool = False) -> np.ndarray:
+    """``predict``'s ``episode_start`` as one bool per observation of a batch of ``n_batch``
+    (SB3 passes its ``dones``); ``broadcast``: one flag may stand for the whole batch.
+
+    Booleans, or numbers 0 and 1; anything else is refused by name (``np.asarray(x, bool)``
+    read ``"no"``, ``NaN`` and ``0.5`` as True: the controller reset its state every step)."""
+    flags = np.asarray(episode_start)
+    if flags.dtype != bool:
+        numeric = flags.dtype.kind in "iuf"
+        if not numeric or not np.isin(flags, (0, 1)).all():
+            shown = np.array2string(flags.reshape(-1)[:4], separator=", ") if flags.size else "[]"
+            raise ValueError(
+                f"episode_start = {shown}{' ...' if flags.size > 4 else ''} ({flags.dtype}): expected booleans "
+                "(or 0 / 1), one per observation of the batch"
+            )
+        flags = flags.astype(bool)
+    flags = flags.reshape(-1)
+    if broadcast and flags.size == 1:
+        return np.repeat(flags, n_batch)
+    if flags.size != n_batch:
+        raise ValueError(
+            f"episode_start has {flags.size} entries: expected {n_batch} (one per observation of the batch)"
+        )
+    return flags
+
+
 def require_finite_observation(
     obs: np.ndarray, feature_names: Sequence[str] | Callable[[], Sequence[str]] | None = None
 ) -> None:
@@ -194,16 +220,11 @@ class ControllerPolicy:
         batch = obs.reshape(1 if single else obs.shape[0], -1, self.k)
         n_batch, units, _ = batch.shape
         n = n_batch * units
+        starts = None if episode_start is None else np.repeat(episode_starts(episode_start, n_batch), units)
         if self._controller is None or self._controller.n != n:
             kwargs = {} if self._filter_cutoff_hz is None else {"filter_cutoff_hz": self._filter_cutoff_hz}
             self._controller = Controller(self.spec, n=n, dt=self.dt, **kwargs)
-        elif episode_start is not None:
-            flags = np.asarray(episode_start, dtype=bool).reshape(-1)
-            if flags.size != n_batch:
-                raise ValueError(
-                    f"episode_start has {flags.size} entries: expected {n_batch} (one per observation of the batch)"
-                )
-            starts = np.repeat(flags, units)
+        elif starts is not None:
             if starts.any():
                 self._controller.reset(starts)
         scale = self._scale(self.position_scale_m, n_batch, units)

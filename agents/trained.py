@@ -21,7 +21,7 @@ import sma_gym  # noqa: F401  (registers the ids)
 from sma_gym._io import atomic_path
 from sma_gym_agents.card import BANK_ENV_ID, PolicyCard
 from sma_gym_agents.history import HistoryFeatures
-from sma_gym_agents.policies import require_finite_observation
+from sma_gym_agents.policies import episode_starts, require_finite_observation
 from sma_gym_agents.residual import ResidualStep
 
 
@@ -69,11 +69,7 @@ class AgentPolicy:
         single = obs.ndim == 1
         batch = obs[None, :] if single else obs
         if episode_start is not None:
-            starts = np.asarray(episode_start, dtype=bool).reshape(-1)
-            if starts.size != len(batch):
-                raise ValueError(
-                    f"episode_start has {starts.size} entries: expected {len(batch)} (one per observation of the batch)"
-                )
+            starts = episode_starts(episode_start, len(batch))
         else:  # no flags: the first call starts an episode, later calls continue it
             starts = np.full(len(batch), self._features is None and self._residual is None and self._stacked is None)
         if self.residual is not None:

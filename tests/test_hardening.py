@@ -2169,3 +2169,28 @@ def test_cli_names_a_write_failure_and_reads_negative_exponents_as_values(tmp_pa
     with pytest.raises(SystemExit):
         main(["fidelity", "--bogus"])
     assert "usage: sma-gym fidelity" in capsys.readouterr().err
+
+
+def test_episode_start_takes_booleans_and_refuses_what_numpy_would_read_as_true():
+    """``np.asarray(x, dtype=bool)`` read ``"no"``, NaN and 0.5 as True: a controller given
+    them reset its state at every step (its integral never built up), without a word."""
+    from sma_gym_agents import ControllerPolicy
+    from sma_gym_agents.bank import FixedSlotBank
+
+    env = gym.make("sma_gym:SMATracking-v0")
+    obs, _ = env.reset(seed=0)
+    policy = ControllerPolicy("PID", env)
+    for flags in ("no", np.array([np.nan]), np.array([0.5])):
+        with pytest.raises(ValueError, match=r"episode_start = .*expected booleans \(or 0 / 1\)"):
+            policy.predict(obs, episode_start=flags)
+    batch = np.stack([obs, obs])
+    with pytest.raises(ValueError, match="episode_start has 1 entries: expected 2"):
+        policy.predict(batch, episode_start=np.array([True]))
+    first, _ = policy.predict(batch, episode_start=np.array([1, 0]))  # 0 / 1 are read as booleans
+    again, _ = policy.predict(batch, episode_start=np.array([True, False]))
+    assert first.shape == again.shape == (2, 1)
+    bank = FixedSlotBank("PID", gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=2))
+    two, _ = gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=2).reset(seed=0)
+    bank.predict(two, episode_start=True)  # one flag for the whole bank
+    with pytest.raises(ValueError, match="episode_start = "):
+        bank.predict(two, episode_start="yes")
