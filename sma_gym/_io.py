@@ -440,6 +440,20 @@ def stopped(err: KeyboardInterrupt) -> tuple[str, int]:
     return ("terminated", Terminated.exit_code) if isinstance(err, Terminated) else ("interrupted", 130)
 
 
+def interrupt_behind(err: BaseException) -> KeyboardInterrupt | None:
+    """The Ctrl-C (or SIGTERM) an error was raised while handling, if any: a library that
+    catches the interrupt mid-call and raises its own error (matplotlib drawing a figure gave
+    a ``ValueError``, once in seven stops) was reported as bad input, exit 2, not as a stop."""
+    seen: set[int] = set()
+    cause: BaseException | None = err
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return cause
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return None
+
+
 @contextlib.contextmanager
 def signals_deferred() -> Iterator[None]:
     """Ctrl-C and SIGTERM wait until the block ends: a run's last renames happen all or none

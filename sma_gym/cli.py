@@ -24,7 +24,7 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
-from sma_gym._io import sigterm_as_interrupt, stopped
+from sma_gym._io import interrupt_behind, sigterm_as_interrupt, stopped
 from sma_gym.extras import MissingExtraError, extra_error, install_hint, missing, require
 
 DEFAULT_DIAGNOSIS_MODEL = "standard"
@@ -545,7 +545,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         # The message starts with what needs the extra, which is this command's own prefix.
         print(f"sma-gym {args.command}: error: {str(err).removeprefix(f'sma-gym {args.command}: ')}", file=sys.stderr)
         return 2
-    except ValueError as err:
+    except (ValueError, OSError) as err:
+        if (interrupt := interrupt_behind(err)) is not None:
+            how, code = stopped(interrupt)
+            print(f"sma-gym {args.command}: {how}", file=sys.stderr)
+            return code
+        if isinstance(err, BrokenPipeError):
+            # The reader of stdout went away (``| head``): nothing is left to tell it, and a
+            # traceback would be noise. Outputs already written stay (they are written whole).
+            with contextlib.suppress(OSError, ValueError):
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+            return 128 + 13  # the shell's code for SIGPIPE
+        if isinstance(err, OSError):
+            # A full disk, a folder made read-only meanwhile: one line naming the file, not a
+            # traceback (what was written is whole or removed: the outputs are staged).
+            where = f"{err.filename}: " if err.filename else ""
+            print(f"sma-gym {args.command}: error: {where}{err.strerror or err}", file=sys.stderr)
+            return 1
         print(f"sma-gym {args.command}: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as err:
@@ -554,18 +570,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         how, code = stopped(err)
         print(f"sma-gym {args.command}: {how}", file=sys.stderr)
         return code
-    except BrokenPipeError:
-        # The reader of stdout went away (``| head``): nothing is left to tell it, and a
-        # traceback would be noise. Outputs already written stay (they are written whole).
-        with contextlib.suppress(OSError, ValueError):
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
-        return 128 + 13  # the shell's code for SIGPIPE
-    except OSError as err:
-        # A full disk, a folder made read-only meanwhile: one line naming the file, not a
-        # traceback (what was written is whole or removed: the outputs are staged).
-        where = f"{err.filename}: " if err.filename else ""
-        print(f"sma-gym {args.command}: error: {where}{err.strerror or err}", file=sys.stderr)
-        return 1
 
 
 if __name__ == "__main__":

@@ -2194,3 +2194,21 @@ def test_episode_start_takes_booleans_and_refuses_what_numpy_would_read_as_true(
     bank.predict(two, episode_start=True)  # one flag for the whole bank
     with pytest.raises(ValueError, match="episode_start = "):
         bank.predict(two, episode_start="yes")
+
+
+def test_a_librarys_error_raised_for_a_ctrl_c_is_reported_as_the_stop(tmp_path, monkeypatch, capsys):
+    """matplotlib, interrupted while drawing, raised a ValueError of its own; the command then
+    said "error: ..." with exit 2 (bad input) instead of "interrupted", 130 (once in seven)."""
+    from sma_gym import cli
+    from sma_gym._io import interrupt_behind
+
+    def drawing(*args, **kwargs):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise ValueError("Image size of 0x0 pixels is too small") from None
+
+    monkeypatch.setattr("sma_gym.diagnosis.synth.main", drawing)
+    assert cli.main(["synth", "--out", str(tmp_path / "s.csv")]) == 130
+    assert capsys.readouterr().err == "sma-gym synth: interrupted\n"
+    assert interrupt_behind(ValueError("plain")) is None

@@ -6,7 +6,7 @@ import datetime
 import sys
 from pathlib import Path
 
-from sma_gym._io import sigterm_as_interrupt, stopped
+from sma_gym._io import interrupt_behind, sigterm_as_interrupt, stopped
 from sma_gym.extras import MissingExtraError, require
 from sma_gym_agents.training.config import ROOT, RunConfig, parse_args
 
@@ -44,6 +44,10 @@ def main(argv: list[str] | None = None) -> int:
 
             table, _ = train_and_compare(run, out, overwrite=args.overwrite, progress=not args.no_progress)
     except (ValueError, MissingExtraError) as err:
+        if (interrupt := interrupt_behind(err)) is not None:  # a library's error for the user's Ctrl-C
+            how, code = stopped(interrupt)
+            print(f"train.py: {how}", file=sys.stderr)
+            return code
         # A missing extra's message starts with what needs it ("train.py: "), the prefix here.
         print(f"train.py: error: {str(err).removeprefix('train.py: ')}", file=sys.stderr)
         return 2
