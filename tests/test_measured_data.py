@@ -328,6 +328,8 @@ def test_a_trace_made_from_arrays_is_checked_as_a_file_is():
         MeasuredTrace("short.csv", t, np.zeros(49), np.zeros(50))
     listed = MeasuredTrace("list.csv", list(t), [0.2] * 50, [0.0] * 50)
     assert listed.t.dtype == float and not listed.t.flags.writeable
+    zeros = MeasuredTrace("z.csv", t, np.r_[np.zeros(25), np.full(25, 0.2)], np.zeros(50), current=np.full(50, 0.0))
+    assert np.isnan(zeros.current[:25]).all()  # as in a file: a logger's 0 where the wire was not driven
     with pytest.raises(MeasuredDataError, match="run.csv: file does not exist"):
         load_traces("run.csv")
     with pytest.raises(TypeError, match="expected the path of a CSV file"):

@@ -130,19 +130,21 @@ class MeasuredTrace:
                     raise MeasuredDataError([f"{where}: {name} = None; expected an array of {name} values"])
                 continue
             try:
-                array = np.array(value, dtype=float)  # a copy: the trace never shares the caller's array
+                column = np.array(value, dtype=float)  # a copy: the trace never shares the caller's array
             except (TypeError, ValueError):
                 raise MeasuredDataError(
                     [f"{where}: {name}: a {type(value).__name__} that is not numbers; expected a 1-D array of floats"]
                 ) from None
-            if array.ndim != 1:
-                raise MeasuredDataError([f"{where}: {name}: shape {array.shape}; expected a 1-D array (one per row)"])
-            array.flags.writeable = False
-            object.__setattr__(self, name, array)
-            columns[name] = array
+            if column.ndim != 1:
+                raise MeasuredDataError([f"{where}: {name}: shape {column.shape}; expected a 1-D array (one per row)"])
+            columns[name] = column
         lengths = {name: len(a) for name, a in columns.items()}
         if len(set(lengths.values())) > 1:
             raise MeasuredDataError([f"{where}: columns of different lengths {lengths}; expected one value per row"])
+        _empty_where_off(columns)  # as a loaded file's
+        for name, column in columns.items():
+            column.flags.writeable = False
+            object.__setattr__(self, name, column)
         unreported = {name: np.zeros(len(a), dtype=bool) for name, a in columns.items()}
         problems = _value_problems(columns, where, unreported)
         if problems:
@@ -429,6 +431,16 @@ def _read_columns(p: Path, where: str, min_rows: int) -> tuple[dict[str, np.ndar
     return columns, problems, reported
 
 
+def _empty_where_off(columns: dict[str, np.ndarray]) -> None:
+    """A logger's 0 in an electrical column where the duty is 0 (the wire was not driven):
+    no reading, made empty in place."""
+    if "duty" in columns:
+        off = columns["duty"] == 0.0
+        for name in ELECTRICAL:
+            if name in columns:
+                columns[name][off & (columns[name] == 0.0)] = math.nan
+
+
 def _is_number(text: str) -> bool:
     try:
         return math.isfinite(_parse_float(text))
@@ -576,11 +588,7 @@ def load_trace(path: str | Path, min_rows: int = 2) -> MeasuredTrace:
     if p.is_dir():
         raise MeasuredDataError([f"{where}: is a directory, expected a CSV file"])
     columns, problems, reported = _read_columns(p, where, min_rows)
-    if "duty" in columns:
-        off = columns["duty"] == 0.0
-        for name in ELECTRICAL:
-            if name in columns:  # a logger's 0 where the wire was not driven: no reading
-                columns[name][off & (columns[name] == 0.0)] = math.nan
+    _empty_where_off(columns)
     problems += _value_problems(columns, where, reported)
     conditions, sidecar_problems = _read_sidecar(p)
     problems += sidecar_problems
