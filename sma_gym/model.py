@@ -49,6 +49,8 @@ class ModelConfig:
     def __post_init__(self) -> None:
         if not isinstance(self.actuator, ActuatorParams):
             raise ValueError(f"ModelConfig.actuator = {self.actuator!r}: expected ActuatorParams")
+        if not isinstance(self.notes, str):  # saved, it made a file load_model refused
+            raise ValueError(f"ModelConfig.notes = {self.notes!r}: expected a string")
         object.__setattr__(self, "effects", EffectSet.of(self.effects))
 
     @property

@@ -623,6 +623,26 @@ def test_every_effect_at_its_off_value_changes_nothing_bit_for_bit():
             assert np.array_equal(a[key], b[key], equal_nan=True), (mode, key)
 
 
+def test_an_effect_counts_as_off_only_where_its_form_changes_nothing():
+    """Every form at its off values: either ``is_off`` (and the model's name shows nothing)
+    and the run is bit for bit the base's, or it is on. Three forms are another law at the
+    off values (a latent heat released at 0.7x moved the wire 1 mm) and were called off."""
+    base = ModelConfig(preset("standard"))
+    duty = np.r_[np.ones(1500), np.zeros(2500), np.full(2000, 0.3)]
+    reference = Simulator(base).run(duty, record=("position_m", "temperature_c"))
+    own_law = []
+    for name, effect in EFFECTS.items():
+        for form in effect.forms:
+            model = base.with_effect(name, effect.off_values, form)
+            run = Simulator(model).run(duty, record=("position_m", "temperature_c"))
+            same = all(np.array_equal(run[k], reference[k]) for k in run)
+            assert model.effects.get(name).is_off == same, (name, form)
+            assert (model.name == base.name) == same, (name, form)
+            if not same:
+                own_law.append(f"{name}/{form}")
+    assert own_law == ["transformation_spread/uniform", "latent_heat/asymmetric", "convection_change/power"]
+
+
 NOMINAL_PINNED = {
     # (position [mm], temperature [degC], resistance [ohm]) at the ends of the four holds
     "averaged": [

@@ -53,6 +53,10 @@ class Effect:
     forms: tuple[str, ...] = ("default",)
     outputs: tuple[str, ...] = ("position", "resistance")
     """Which measured outputs the effect can change (diagnosis uses this)."""
+    forms_with_own_law: tuple[str, ...] = ()
+    """Forms that change the model even at the off values (another law, not a size: the
+    latent heat released at 0.7x on cooling, power-law convection, a uniform spread of the
+    wire's own transformation temperatures): an effect in one of them is never off."""
 
     def parameter(self, name: str) -> EffectParameter:
         for p in self.parameters:
@@ -91,6 +95,7 @@ EFFECTS: dict[str, Effect] = {
                 _p("spread_k", "K", 0.0, 0.0, 20.0, 6.0, "standard deviation of the local transformation temperatures"),
             ),
             forms=("default", "uniform"),
+            forms_with_own_law=("uniform",),
         ),
         Effect(
             name="minor_loop_width",
@@ -132,6 +137,7 @@ EFFECTS: dict[str, Effect] = {
                 _p("change_j_kg", "J/kg", 0.0, -24200.0, 24200.0, -12000.0, "change of the latent heat per unit mass"),
             ),
             forms=("default", "asymmetric"),
+            forms_with_own_law=("asymmetric",),
         ),
         Effect(
             name="convection_change",
@@ -147,6 +153,7 @@ EFFECTS: dict[str, Effect] = {
                 _p("h1_w_m2_k2", "W/(m^2 K^2)", 0.0, -0.6, 3.0, 0.6, "added linear temperature dependence of h"),
             ),
             forms=("default", "power"),
+            forms_with_own_law=("power",),
         ),
         Effect(
             name="warm_surroundings",
@@ -272,7 +279,12 @@ class EffectSetting:
 
     @property
     def is_off(self) -> bool:
+        """True when the model is the one without the effect: every parameter at its off
+        value, in a form that is inert there (:attr:`Effect.forms_with_own_law` are not: the
+        model's name hid a latent heat released at 0.7x that moved the wire by 1 mm)."""
         effect = get_effect(self.name)
+        if self.form in effect.forms_with_own_law:
+            return False
         return all(self.values[p.name] == p.off for p in effect.parameters)
 
     def to_dict(self) -> dict[str, Any]:
