@@ -629,7 +629,11 @@ class Simulator:
 
     @property
     def duty_applied(self) -> np.ndarray:
-        """Duty applied in the last control step, after clipping to [0, duty_max]."""
+        """Duty of the last control step's command, clipped to [0, duty_max]: what the driver
+        was given, not what it delivered (in the resolved PWM mode it latches a command at its
+        next PWM period, so at 1 kHz over a 500 Hz PWM every other command is never applied;
+        the end-of-travel cut holds the power off whatever the duty): ``power_w`` is what
+        was delivered."""
         return self.state[:, L.S_DUTY_CMD]
 
     @property

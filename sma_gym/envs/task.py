@@ -124,7 +124,7 @@ _DEFINITIONS = {
     "preview_0.2s": "r(t + 0.2 s) / stroke",
     "preview_0.5s": "r(t + 0.5 s) / stroke",
     "preview_1s": "r(t + 1 s) / stroke (a reversal must be anticipated by the time the wire takes to cool through the hysteresis)",
-    "last_duty": "duty applied in the last step",
+    "last_duty": "duty commanded in the last step, clipped (what the driver was given)",
     "error": "(r(t) - measured position) / stroke",
 }
 
@@ -168,7 +168,7 @@ STATE_INFO = {
     "power_w": "mean electrical power of the step [W]",
     "electrical_energy_j": "electrical energy since reset [J]",
     "spring_force_n": "bias-spring force (what the report's force transducer reads) [N]",
-    "duty": "duty applied in the step, after clipping",
+    "duty": "duty commanded in the step, clipped to [0, duty_max] (the resolved PWM latches it at its next period; the end-of-travel cut may hold the power off: power_w is what was delivered)",
     "time_s": "simulated time since reset [s]",
 }
 """``info`` entries that are simulator state quantities (names of ``Simulator.read``)."""
