@@ -43,6 +43,26 @@ def require_finite(name: str, value: Any, unit: str = "") -> float:
     return number
 
 
+_KINDS = {"b": "booleans", "U": "strings", "S": "bytes", "c": "complex numbers", "O": "objects"}
+
+
+def require_float_array(name: str, value: Any, unit: str = "") -> np.ndarray:
+    """``value`` (a number or an array of numbers) as a float array, or ``ValueError`` naming
+    ``name``: ``np.asarray(x, dtype=float)`` took ``"0.5"`` and ``True`` as numbers (a flag
+    ran as duty 1), dropped an imaginary part with a warning only, and raised an unnamed
+    ``OverflowError`` for ``10**400``. Finiteness is the caller's check (it names the index)."""
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} = {_fmt(value)}: expected numbers{_unit(unit)}") from None
+    if array.dtype.kind not in "iuf":
+        what = _KINDS.get(array.dtype.kind, str(array.dtype))
+        if array.dtype.kind == "O":
+            what += " (an integer beyond float's range, or numbers mixed with other things)"
+        raise ValueError(f"{name} = {_fmt(value)}: expected numbers{_unit(unit)}, not {what}")
+    return array.astype(float)
+
+
 def require_options(options: Any) -> dict[str, Any]:
     """``reset(options=...)``: a dict (a copy is returned) or ``None`` (an empty dict)."""
     if options is None:

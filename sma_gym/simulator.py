@@ -19,10 +19,11 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Sequence
 from operator import itemgetter
+from typing import Any
 
 import numpy as np
 
-from sma_gym._validation import require_choice, require_range
+from sma_gym._validation import require_choice, require_float_array, require_int_range, require_range
 from sma_gym.core import layout as L
 from sma_gym.core.kernel import advance
 from sma_gym.electrical.multiplexer import Multiplexer
@@ -320,7 +321,7 @@ class Simulator:
                 require_range(f"pwm_slots[{j}].period_s", period, 1e-6, 1.0, "s")
                 require_range(f"pwm_slots[{j}].phase", phase, 0.0, 1.0, upper_open=True)
                 require_range(f"pwm_slots[{j}].duty_max", duty_max, 0.0, 1.0, lower_open=True)
-        self.rng = rng if rng is not None else np.random.default_rng(seed)
+        self.rng = _generator(seed, rng)
         self.max_substep_s = max_substep_s
         self.max_temperature_step_k = max_temperature_step_k
         self.max_position_step_m = max_position_step_m
@@ -363,31 +364,44 @@ class Simulator:
     # ------------------------------------------------------------------------------------
     # Reset and stepping
     # ------------------------------------------------------------------------------------
-    def reset(self, mask: np.ndarray | None = None, *, temperature_c: float | np.ndarray | None = None) -> None:
+    def reset(
+        self, mask: np.ndarray | None = None, *, temperature_c: float | np.ndarray | None = None, seed: Any = None
+    ) -> None:
         """Put actuators (all, those where a boolean ``mask`` is True, or those at the
         indices in an integer ``mask``) at rest: cold, extended.
+
+        ``seed`` restarts the sensor-noise generator (every actuator's: one stream serves
+        them all), so that ``reset(seed=s)`` and the same duties give the same readings.
 
         ``temperature_c`` starts them at another temperature, still fully martensitic: at
         most where the coldest hysteron starts to transform at the rest stress (A_s + sigma0 /
         C_A lowered by the spread: ``ActuatorParams.highest_rest_temperature_c``, with the
         model's effects), i.e. a state the wire can rest in.
         """
-        which = slice(None) if mask is None else np.asarray(mask)
-        if mask is not None and which.dtype != bool and not np.issubdtype(which.dtype, np.integer):
-            raise ValueError(f"mask has dtype {which.dtype}: expected booleans or integer indices")
+        which = slice(None) if mask is None else self._actuators(mask)
+        rng = None if seed is None else _generator(seed, None)  # set once every argument passed
         p = self.params
         s = self.state
         t_amb = p[which, L.P_T_AMB]
         if temperature_c is None:
             t0 = t_amb
         else:
-            t0 = np.broadcast_to(np.asarray(temperature_c, dtype=float), np.shape(t_amb))
+            t0 = require_float_array("temperature_c", temperature_c, "degC")
+            try:
+                t0 = np.broadcast_to(t0, np.shape(t_amb))
+            except ValueError:
+                raise ValueError(
+                    f"temperature_c has shape {np.shape(t0)}: expected a scalar or one per actuator reset "
+                    f"({np.shape(t_amb)[0]})"
+                ) from None
             limit = self._rest_limit_c(which)
             if not np.all(np.isfinite(t0)) or np.any(t0 > limit) or np.any(t0 < -60.0):
                 raise ValueError(
                     f"temperature_c = {temperature_c!r}: expected a finite value between -60 degC and the "
                     f"stress-shifted start of the wire's transformation ({float(np.min(limit)):.1f} degC)"
                 )
+        if rng is not None:
+            self.rng = rng
         s[which, :] = 0.0
         s[which, L.S_T] = t0
         s[which, L.S_T_RESET] = t0
@@ -429,6 +443,8 @@ class Simulator:
 
         Its PWM slot, mode and accuracy bounds stay; call :meth:`reset` for it afterwards.
         """
+        # (True was read as index 1 by the list and as every row by the parameter array.)
+        index = require_int_range("index", index, 0, self.n - 1)
         m = load_model(model)
         if self._slots is not None:
             period, phase, duty_max = self._slots[index]
@@ -445,6 +461,29 @@ class Simulator:
     def has_noise(self) -> bool:
         """True if any actuator's sensors are noisy (then each step draws from ``rng``)."""
         return self._has_noise
+
+    def __copy__(self) -> Simulator:
+        # A shallow copy shared the state arrays and the generator: stepping the copy moved
+        # the original. A simulator is its arrays, so every copy is a deep one.
+        import copy
+
+        return copy.deepcopy(self)
+
+    def _actuators(self, mask: Any) -> np.ndarray:
+        """``reset``'s ``mask`` checked: booleans of shape (n,), or indices in [0, n) (numpy's
+        own IndexError, or a scalar True read as 'index 10 out of bounds', named nothing)."""
+        which = np.asarray(mask)
+        if which.size == 0:
+            return np.zeros(0, dtype=int)
+        if which.dtype == bool:
+            if which.shape != (self.n,):
+                raise ValueError(f"mask has shape {which.shape}: expected booleans of shape ({self.n},) or indices")
+            return which
+        if not np.issubdtype(which.dtype, np.integer) or which.ndim != 1:
+            raise ValueError(f"mask = {mask!r}: expected booleans of shape ({self.n},) or a 1-D array of indices")
+        if which.min() < 0 or which.max() >= self.n:
+            raise ValueError(f"mask = {mask!r}: indices must lie in [0, {self.n - 1}]")
+        return which
 
     def _rest_limit_c(self, which) -> np.ndarray:
         """The warmest temperature at which the wire rests fully martensitic [degC]: where its
@@ -479,7 +518,7 @@ class Simulator:
 
         Raises ``ValueError`` for NaN/inf or a wrong shape.
         """
-        if type(duty) is float or type(duty) is int:
+        if type(duty) is float or (type(duty) is int and abs(duty) < 2**53):
             # Fast path for one scalar (a single env calls this every control step).
             if not math.isfinite(duty):
                 raise ValueError(f"duty = {duty!r}: {_DUTY_EXPECTED}")
@@ -488,7 +527,7 @@ class Simulator:
             else:
                 self._duty_buffer.fill(duty)
         else:
-            arr = np.asarray(duty, dtype=float)
+            arr = require_float_array("duty", duty)
             if arr.ndim == 0:
                 self._duty_buffer[0, :] = float(arr)
             elif arr.shape == (self.n,):
@@ -537,14 +576,16 @@ class Simulator:
         names state quantities (see :data:`RECORDABLE`); each is returned with shape
         (n_steps, n). ``"time_s"`` is always included.
         """
-        arr = np.asarray(duty, dtype=float)
+        arr = require_float_array("duty", duty)
         if arr.ndim == 1:
             arr = np.repeat(arr[:, None], self.n, axis=1)
         if arr.ndim != 2 or arr.shape[1] != self.n:
             raise ValueError(f"duty has shape {np.shape(duty)}: expected (n_steps,) or (n_steps, {self.n})")
         if not np.all(np.isfinite(arr)):
             bad = np.argwhere(~np.isfinite(arr))[0]
-            raise ValueError(f"duty[{bad[0]}] = {arr[tuple(bad)]!r}: {_DUTY_EXPECTED}")
+            where = f"{bad[0]}" if np.ndim(duty) == 1 else f"{bad[0]}, {bad[1]}"  # the column too, for (n_steps, n)
+            raise ValueError(f"duty[{where}] = {arr[tuple(bad)]!r}: {_DUTY_EXPECTED}")
+        _fields_of(record, "record")
         names = list(dict.fromkeys(["time_s", *record]))
         fields = np.asarray(_fields_of(names, "record"), dtype=np.int64)
         n_steps = arr.shape[0]
@@ -655,6 +696,9 @@ class Simulator:
 
     def read_actuator_values(self, index: int, names: tuple[str, ...]) -> tuple[float, ...]:
         """:meth:`read_actuator`'s values alone, in the order of ``names`` (a tuple)."""
+        if type(names) is not tuple:  # a list is unhashable, a string would be read as letters
+            _fields_of(names, "names")
+            names = tuple(names)
         getter = _GETTERS.get(names)
         if getter is None:
             fields = _fields_of(names, "names")
@@ -724,8 +768,27 @@ RECORDABLE = tuple(sorted(L.STATE_FIELDS))
 _GETTERS: dict[tuple[str, ...], Callable[[list[float]], tuple[float, ...]]] = {}
 
 
+def _generator(seed: Any, rng: Any) -> np.random.Generator:
+    """The sensor-noise generator from ``seed`` or ``rng`` (one of them), named when wrong: a
+    ``RandomState`` ran in ``run`` and failed in ``step``; ``rng=3`` failed at the first step."""
+    if rng is not None:
+        if seed is not None:
+            raise ValueError(f"seed = {seed!r} and rng: expected one of the two")
+        if not isinstance(rng, np.random.Generator):
+            raise ValueError(
+                f"rng = {rng!r}: expected a numpy.random.Generator (np.random.default_rng(seed)), or seed=..."
+            )
+        return rng
+    if seed is not None and not isinstance(seed, np.random.SeedSequence):
+        seed = require_int_range("seed", seed, 0, 2**63 - 1)
+    return np.random.default_rng(seed)
+
+
 def _fields_of(names: Sequence[str], what: str) -> list[int]:
     """Layout indices of named state quantities; an unknown name raises ``ValueError``."""
+    if isinstance(names, str) or not isinstance(names, (list, tuple)):
+        # A single string was read as its letters ("record contains 'p'").
+        raise ValueError(f"{what} = {names!r}: expected a list or tuple of names, e.g. ('position_m',)")
     try:
         return [L.STATE_FIELDS[name] for name in names]
     except KeyError as err:

@@ -966,3 +966,57 @@ def test_named_views_read_the_state_by_name():
     assert not sim.end_of_travel_cut.any()
     with pytest.raises(ValueError, match="no_such_quantity"):
         sim.read(("no_such_quantity",))
+
+
+def test_the_simulator_api_refuses_what_numpy_would_quietly_convert():
+    """From an audit of the Python API: ``step("0.5")``, ``step(True)`` (duty 1), a complex
+    duty (the imaginary part dropped with a warning) and ``reset(temperature_c=True)`` (1 degC)
+    ran; ``record="position_m"`` was read as letters; a scalar True as ``reset``'s mask hit
+    numpy's IndexError; ``set_model(True, ...)`` gave actuator 1 the model and every row its
+    parameters; ``rng=3`` failed at the first step."""
+    sim = Simulator("standard", n=3)
+    for call, needle in (
+        (lambda: sim.step("0.5"), "duty = '0.5': expected numbers, not strings"),
+        (lambda: sim.step(True), "not booleans"),
+        (lambda: sim.run(np.full((5, 3), 0.5 + 0.1j)), "not complex numbers"),
+        (lambda: sim.step(10**400), "an integer of about 400 digits"),
+        (lambda: sim.reset(temperature_c=True), "temperature_c = True"),
+        (lambda: sim.reset([0], temperature_c=[30.0, 40.0]), "expected a scalar or one per actuator reset"),
+        (lambda: sim.run(np.ones(3), record="position_m"), "record = 'position_m': expected a list or tuple"),
+        (lambda: sim.read("position_m"), "names = 'position_m'"),
+        (lambda: sim.reset(True), r"mask has shape \(\): expected booleans of shape \(3,\)"),
+        (lambda: sim.reset([3]), r"indices must lie in \[0, 2\]"),
+        (lambda: sim.set_model(True, "supply-15v"), "index = True"),
+        (lambda: sim.run(np.r_[np.ones((2, 3)), [[1.0, np.nan, 1.0]]]), r"duty\[2, 1\] = "),
+        (lambda: Simulator("standard", rng=3), "rng = 3: expected a numpy.random.Generator"),
+        (lambda: Simulator("standard", seed=1.5), "seed = 1.5"),
+    ):
+        with pytest.raises(ValueError, match=needle):
+            call()
+    assert sim.read_actuator(0, ["position_m", "temperature_c"]) == sim.read_actuator(
+        0, ("position_m", "temperature_c")
+    )
+
+
+def test_a_copy_of_a_simulator_is_its_own_and_reset_seed_repeats_the_noise():
+    """``copy.copy`` shared the state arrays and the generator (stepping the copy heated the
+    original); ``reset`` had no seed, so a noisy run could not be repeated on one simulator."""
+    import copy
+
+    noisy = ModelConfig(preset("standard")).with_actuator(**{"sensors.position_noise_std_m": 1e-5})
+    a = Simulator(noisy, seed=0)
+    b = copy.copy(a)
+    b.run(np.ones(500))
+    assert a.time_s[0] == 0.0 and a.temperature_c[0] == pytest.approx(
+        a.models[0].actuator.convection.ambient_temperature_c
+    )
+    duty = np.r_[np.ones(300), np.zeros(300)]
+    a.reset(seed=7)
+    first = a.run(duty, record=("position_measured_m",))["position_measured_m"]
+    a.reset(seed=7)
+    again = a.run(duty, record=("position_measured_m",))["position_measured_m"]
+    assert np.array_equal(first, again)
+    rng_before = a.rng
+    with pytest.raises(ValueError, match="temperature_c"):
+        a.reset(seed=8, temperature_c=500.0)
+    assert a.rng is rng_before  # a refused reset changes nothing
