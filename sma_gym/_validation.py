@@ -60,7 +60,7 @@ def require_float_array(name: str, value: Any, unit: str = "") -> np.ndarray:
         if array.dtype.kind == "O":
             what += " (an integer beyond float's range, or numbers mixed with other things)"
         raise ValueError(f"{name} = {_fmt(value)}: expected numbers{_unit(unit)}, not {what}")
-    return array.astype(float)
+    return array.astype(float, copy=False)
 
 
 def require_options(options: Any) -> dict[str, Any]:
