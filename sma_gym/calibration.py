@@ -213,7 +213,11 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
 
     where = Path(folder) if folder else find_real_data_dir()
     if where is None or not where.is_dir():
-        raise SystemExit(f"the shared real runs (../shared/data/real, or ${REAL_DATA_ENV}) are not on this machine")
+        raise ValueError(f"the shared real runs (../shared/data/real, or ${REAL_DATA_ENV}) are not on this machine")
+    if write:  # before the minutes of the diagnosis: a read-only install failed only after them
+        from sma_gym._io import check_output_file
+
+        check_output_file(twin_path("bench-0.5mm-ht"), "the twin's file", overwrite=True)
     traces = [load_trace(where / name) for name in REAL_BENCH_RUNS]
     nominal = ModelConfig(preset("bench-0.5mm-ht-datasheet"))
     result = diagnose(traces, [], nominal, max_rounds=max_rounds, progress=lambda m: print("twin:", m, flush=True))
@@ -283,7 +287,8 @@ def main(argv: list[str] | None = None) -> None:
         else:
             p = standard()
             calibrate(p.convection.h0_w_m2_k, p.wire.resistivity_austenite_ohm_m)
-    except MissingExtraError as err:
+    except (MissingExtraError, ValueError) as err:
+        # Missing or malformed real runs, a read-only install: one message, not a traceback.
         parser.exit(2, f"{parser.prog}: error: {err}\n")
 
 

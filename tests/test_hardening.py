@@ -2212,3 +2212,14 @@ def test_a_librarys_error_raised_for_a_ctrl_c_is_reported_as_the_stop(tmp_path, 
     assert cli.main(["synth", "--out", str(tmp_path / "s.csv")]) == 130
     assert capsys.readouterr().err == "sma-gym synth: interrupted\n"
     assert interrupt_behind(ValueError("plain")) is None
+
+
+def test_calibration_names_missing_real_runs_in_one_line(tmp_path, monkeypatch, capsys):
+    """``python -m sma_gym.calibration twin|bench`` without the real runs gave a traceback."""
+    from sma_gym.calibration import main
+
+    for folder, needle in ((tmp_path / "none", "expected a folder holding the bench's runs"), (tmp_path, "step01.csv")):
+        monkeypatch.setenv("SMA_GYM_REAL_DATA", str(folder))
+        with pytest.raises(SystemExit) as stop:
+            main(["twin"])
+        assert stop.value.code == 2 and needle in capsys.readouterr().err
