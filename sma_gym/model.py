@@ -60,6 +60,8 @@ class ModelConfig:
 
     def with_effect(self, name: str, values: Mapping[str, float], form: str = "default") -> ModelConfig:
         """Copy with one effect set (replacing an earlier setting of the same effect)."""
+        if not isinstance(values, Mapping):
+            raise ValueError(f"with_effect({name!r}, {values!r}): expected a mapping of parameter names to values")
         return replace(self, effects=self.effects.with_setting(EffectSetting(name, dict(values), form)))
 
     def with_actuator(self, **changes: Any) -> ModelConfig:

@@ -296,6 +296,11 @@ class Wire:
     )
     """The physical range of each numeric field (checked by :meth:`validate`)."""
 
+    def __post_init__(self) -> None:
+        # Checked when built, not only inside ActuatorParams: a Wire(diameter_m=-1) gave
+        # derived values (area, resistance) without a word.
+        self.validate()
+
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
         check_bounds(self, self._BOUNDS)
@@ -447,6 +452,9 @@ class Mechanism:
     )
     """The physical range of each numeric field (checked by :meth:`validate`)."""
 
+    def __post_init__(self) -> None:
+        self.validate()
+
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
         check_bounds(self, self._BOUNDS)
@@ -516,6 +524,9 @@ class Convection:
     )
     """The physical range of each numeric field (checked by :meth:`validate`)."""
 
+    def __post_init__(self) -> None:
+        self.validate()
+
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
         check_bounds(self, self._BOUNDS)
@@ -581,6 +592,9 @@ class Driver:
         Bound(("end_of_travel_release_m",), 0.0, 1.0, unit="m", why="the hysteresis of the end-of-travel switch"),
     )
     """The physical range of each numeric field (checked by :meth:`validate`)."""
+
+    def __post_init__(self) -> None:
+        self.validate()
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
@@ -653,6 +667,9 @@ class Sensors:
         Bound(("voltage_noise_std_v",), 0.0, 60.0, unit="V", why="the supply is at most 60 V"),
     )
     """The physical range of each numeric field (checked by :meth:`validate`)."""
+
+    def __post_init__(self) -> None:
+        self.validate()
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field, its value and the physical range."""
@@ -824,7 +841,8 @@ class ActuatorParams:
         def plain(tree: Any) -> Any:
             if isinstance(tree, dict):
                 return {k: plain(v) for k, v in tree.items()}
-            return tree.item() if isinstance(tree, np.generic) else tree
+            # (a 0-d array too: np.array(15.0) passed every check and then failed json.dumps)
+            return tree.item() if isinstance(tree, np.generic | np.ndarray) and np.ndim(tree) == 0 else tree
 
         return plain(dataclasses.asdict(self))
 

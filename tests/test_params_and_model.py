@@ -290,3 +290,30 @@ def test_a_wire_whose_expansion_eats_its_transformation_strain_is_refused():
     ):
         p.with_changes(**{"wire.max_transformation_strain": 0.001})
     assert p.with_changes(**{"wire.max_transformation_strain": 0.01}).loaded_reach_m > 0.0
+
+
+def test_parts_effects_and_configs_are_checked_when_built_and_stay_as_checked():
+    """From an audit of the Python API: a Wire(diameter_m=-1) was built (checked only inside
+    ActuatorParams); ``effects=['latent_heat']`` failed with an AttributeError and a setting
+    under another effect's key was silently filed under its own; an effect's checked values
+    could be changed afterwards; a 0-d array value passed every check and failed to save."""
+    from sma_gym.effects import EffectSetting
+
+    with pytest.raises(ValueError, match="Wire.diameter_m = -1"):
+        Wire(diameter_m=-1)
+    with pytest.raises(ValueError, match="Driver.supply_voltage_v = nan"):
+        Driver(supply_voltage_v=float("nan"))
+    base = ModelConfig(standard())
+    with pytest.raises(ValueError, match="'latent_heat' is no EffectSetting"):
+        ModelConfig(standard(), effects=["latent_heat"])
+    with pytest.raises(ValueError, match="expected a mapping of parameter names"):
+        base.with_effect("latent_heat", None)
+    with pytest.raises(ValueError, match="a setting of 'latent_heat': expected one of 'coulomb_friction'"):
+        EffectSet.of({"coulomb_friction": EffectSetting("latent_heat", {"change_j_kg": -1000.0})})
+    with pytest.raises(ValueError, match="ModelConfig.notes = None"):
+        ModelConfig(standard(), notes=None)
+    friction = base.with_effect("coulomb_friction", {"force_n": 0.1})
+    with pytest.raises(TypeError):
+        friction.effects.get("coulomb_friction").values["force_n"] = float("nan")
+    saved = json.loads(json.dumps(standard().with_changes(**{"driver.supply_voltage_v": np.array(15.0)}).to_dict()))
+    assert saved["driver"]["supply_voltage_v"] == 15.0

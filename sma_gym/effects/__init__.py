@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any
 
 from sma_gym._validation import require_finite
@@ -275,7 +276,12 @@ class EffectSetting:
                     f"{self.name}.{key} = {value!r}: expected a value in [{spec.lower:g}, {spec.upper:g}] ({spec.unit})"
                 )
             clean[key] = number
-        object.__setattr__(self, "values", clean)
+        # Read-only: the checked values could be changed afterwards (a NaN force simulated).
+        object.__setattr__(self, "values", MappingProxyType(clean))
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # pickle and deepcopy rebuild it from a plain dict (a mappingproxy cannot be pickled).
+        return (EffectSetting, (self.name, dict(self.values), self.form))
 
     @property
     def is_off(self) -> bool:
@@ -316,6 +322,8 @@ class EffectSet:
             settings = []
             for name, value in spec.items():
                 if isinstance(value, EffectSetting):
+                    if value.name != name:  # the key was silently ignored
+                        raise ValueError(f"effects[{name!r}] = a setting of {value.name!r}: expected one of {name!r}")
                     settings.append(value)
                     continue
                 if not isinstance(value, Mapping):
@@ -338,7 +346,16 @@ class EffectSet:
                 else:
                     settings.append(EffectSetting(name, dict(value)))
             return cls(tuple(settings))
-        return cls(tuple(spec))
+        if isinstance(spec, (str, bytes)) or not isinstance(spec, Iterable):
+            raise ValueError(f"effects = {spec!r}: expected a mapping {{name: {{parameter: value}}}} or EffectSettings")
+        settings = tuple(spec)
+        for setting in settings:
+            if not isinstance(setting, EffectSetting):  # ['latent_heat'] failed with an AttributeError
+                raise ValueError(
+                    f"effects = {spec!r}: {setting!r} is no EffectSetting; expected a mapping "
+                    "{name: {parameter: value}} or EffectSetting(name, values, form) items"
+                )
+        return cls(settings)
 
     def get(self, name: str) -> EffectSetting | None:
         for s in self.settings:
