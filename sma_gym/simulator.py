@@ -296,8 +296,9 @@ class Simulator:
                 raise ValueError("model = []: expected at least one model")
         else:
             count = 1 if n is None else n
-            if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-                raise ValueError(f"n = {n!r}: expected an integer >= 1")
+            if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or not 1 <= count <= MAX_ACTUATORS:
+                # (10**12 ended in a MemoryError naming nothing)
+                raise ValueError(f"n = {n!r}: expected an integer in [1, {MAX_ACTUATORS}]")
             models = [load_model(model)] * int(count)
         self.models: list[ModelConfig] = list(models)
         self.n = len(models)
@@ -313,7 +314,7 @@ class Simulator:
             pwm_slots = [(multiplexer.period_s, multiplexer.phase(j), multiplexer.duty_max) for j in range(self.n)]
         self._slots = None
         if pwm_slots is not None:
-            pwm_slots = [tuple(map(float, slot)) for slot in pwm_slots]
+            pwm_slots = [_pwm_slot(j, slot) for j, slot in enumerate(pwm_slots)]
             self._slots = pwm_slots
             if len(pwm_slots) != self.n:
                 raise ValueError(f"pwm_slots has {len(pwm_slots)} entries: expected {self.n} (one per actuator)")
@@ -761,11 +762,27 @@ class Simulator:
         return out
 
 
+MAX_ACTUATORS = 10_000_000
+"""Most actuators one simulator holds (its state and parameter rows take about 1 kB each: 10 GB here)."""
+
 RECORDABLE = tuple(sorted(L.STATE_FIELDS))
 """Names of the state quantities :meth:`Simulator.run` records and :meth:`Simulator.read` reads."""
 
 
 _GETTERS: dict[tuple[str, ...], Callable[[list[float]], tuple[float, ...]]] = {}
+
+
+def _pwm_slot(j: int, slot: Any) -> tuple[float, float, float]:
+    """One ``(period_s, phase, duty_max)`` of ``pwm_slots``, its numbers checked by name
+    (a pair failed to unpack, a string '0.002' was taken as a number)."""
+    from sma_gym._validation import require_finite
+
+    if isinstance(slot, (str, bytes)) or not hasattr(slot, "__len__") or len(slot) != 3:
+        raise ValueError(f"pwm_slots[{j}] = {slot!r}: expected (period_s, phase, duty_max)")
+    period, phase, duty_max = (
+        require_finite(f"pwm_slots[{j}].{what}", value) for what, value in zip(("period_s", "phase", "duty_max"), slot)
+    )
+    return period, phase, duty_max
 
 
 def _generator(seed: Any, rng: Any) -> np.random.Generator:

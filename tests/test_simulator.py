@@ -990,6 +990,9 @@ def test_the_simulator_api_refuses_what_numpy_would_quietly_convert():
         (lambda: sim.run(np.r_[np.ones((2, 3)), [[1.0, np.nan, 1.0]]]), r"duty\[2, 1\] = "),
         (lambda: Simulator("standard", rng=3), "rng = 3: expected a numpy.random.Generator"),
         (lambda: Simulator("standard", seed=1.5), "seed = 1.5"),
+        (lambda: Simulator("standard", n=10**12), r"n = 1000000000000: expected an integer in \[1, 10000000\]"),
+        (lambda: Simulator("standard", pwm_slots=[(0.002, 0.0)]), r"pwm_slots\[0\] = \(0.002, 0.0\): expected"),
+        (lambda: Simulator("standard", pwm_slots=[("0.002", 0.0, 1.0)]), r"pwm_slots\[0\].period_s = '0.002'"),
     ):
         with pytest.raises(ValueError, match=needle):
             call()
