@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from types import MappingProxyType
 from typing import Any
 
 from sma_gym._validation import require_finite
@@ -255,6 +254,19 @@ def get_effect(name: str) -> Effect:
         raise ValueError(f"effect = {name!r}: expected one of {', '.join(map(repr, EFFECTS))}") from None
 
 
+class ReadOnlyValues(dict):
+    """An effect setting's checked values: a dict (JSON, ``dataclasses.asdict``, pickle and
+    copies take it as one) that refuses to change."""
+
+    def _refuse(self, *args: Any, **kwargs: Any) -> None:
+        raise TypeError("an effect's values are read-only: make another setting (ModelConfig.with_effect)")
+
+    __setitem__ = __delitem__ = __ior__ = clear = pop = popitem = setdefault = update = _refuse  # type: ignore[assignment]
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (ReadOnlyValues, (dict(self),))
+
+
 @dataclass(frozen=True)
 class EffectSetting:
     """An effect switched on with parameter values (and optionally a non-default form)."""
@@ -277,11 +289,7 @@ class EffectSetting:
                 )
             clean[key] = number
         # Read-only: the checked values could be changed afterwards (a NaN force simulated).
-        object.__setattr__(self, "values", MappingProxyType(clean))
-
-    def __reduce__(self) -> tuple[Any, ...]:
-        # pickle and deepcopy rebuild it from a plain dict (a mappingproxy cannot be pickled).
-        return (EffectSetting, (self.name, dict(self.values), self.form))
+        object.__setattr__(self, "values", ReadOnlyValues(clean))
 
     @property
     def is_off(self) -> bool:
