@@ -1592,7 +1592,7 @@ def _require_no_stuck_output(trace: MeasuredTrace) -> None:
             continue
         finite = np.asarray(values, dtype=float)
         finite = finite[np.isfinite(finite)]
-        if finite.size > 10 and float(finite.max()) == float(finite.min()):
+        if finite.size > 10 and not _varies(finite):
             unit = {"position": "m", "resistance": "ohm", "current": "A"}[attr]
             if attr == "position":
                 why = "while the wire is heated"
@@ -1617,7 +1617,7 @@ def data_notes(traces: Sequence[MeasuredTrace], heldout: Sequence[MeasuredTrace]
     a gap in the time stamps, across which the duty is held; a position that falls while
     heated."""
     notes = []
-    periods = {Path(t.path).name: t.sample_period_s for t in traces if len(t.t) > 1}
+    periods = {name: t.sample_period_s for name, t in zip(file_labels(traces), traces) if len(t.t) > 1}
     if periods and max(periods.values()) > RATE_NOTE_FACTOR * min(periods.values()):
         dense, sparse = min(periods, key=periods.get), max(periods, key=periods.get)
         notes.append(
