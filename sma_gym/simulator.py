@@ -23,7 +23,13 @@ from typing import Any
 
 import numpy as np
 
-from sma_gym._validation import require_choice, require_float_array, require_int_range, require_range
+from sma_gym._validation import (
+    require_choice,
+    require_finite,
+    require_float_array,
+    require_int_range,
+    require_range,
+)
 from sma_gym.core import layout as L
 from sma_gym.core.kernel import advance
 from sma_gym.electrical.multiplexer import Multiplexer
@@ -775,8 +781,6 @@ _GETTERS: dict[tuple[str, ...], Callable[[list[float]], tuple[float, ...]]] = {}
 def _pwm_slot(j: int, slot: Any) -> tuple[float, float, float]:
     """One ``(period_s, phase, duty_max)`` of ``pwm_slots``, its numbers checked by name
     (a pair failed to unpack, a string '0.002' was taken as a number)."""
-    from sma_gym._validation import require_finite
-
     if isinstance(slot, (str, bytes)) or not hasattr(slot, "__len__") or len(slot) != 3:
         raise ValueError(f"pwm_slots[{j}] = {slot!r}: expected (period_s, phase, duty_max)")
     period, phase, duty_max = (

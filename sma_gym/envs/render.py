@@ -64,11 +64,8 @@ class EpisodeHistory:
 
 def _nice_at_least(x: float) -> float:
     """The smallest of 1, 2, 5 x 10^k that is at least ``x`` (> 0)."""
-    exponent = np.floor(np.log10(x))
-    for mantissa in (1.0, 2.0, 5.0, 10.0):
-        if mantissa * 10.0**exponent >= x * (1 - 1e-12):
-            return float(mantissa * 10.0**exponent)
-    return float(10.0 ** (exponent + 1))  # pragma: no cover (10 x 10^k >= x always)
+    base = 10.0 ** np.floor(np.log10(x))
+    return float(next(m * base for m in (1.0, 2.0, 5.0, 10.0) if m * base >= x * (1 - 1e-12)))
 
 
 def axis_limits(low: float, high: float, floor: float) -> tuple[float, float]:
