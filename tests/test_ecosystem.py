@@ -430,6 +430,83 @@ def test_sb3_get_attr_gives_each_sub_env_its_own_value():
     assert venv.get_attr("control_period_s") == [0.01] * 3
 
 
+@pytest.mark.parametrize("env_id", ["SMATracking-v0", "SMAMultiplexed-v0"])
+def test_sb3_env_method_reset_returns_each_sub_envs_own_start_and_restarts_its_episode_stats(env_id):
+    """As ``DummyVecEnv`` over ``Monitor`` (found by an audit): ``env_method("reset")`` gives
+    entry k sub-env k's own ``(obs, info)`` with ``indices=None`` too (it gave the whole batch
+    n times), resets a subset of the multiplexed bank's vector env (``AttributeError``:
+    no ``reset_envs``), and restarts the episode statistics of the sub-envs it resets (an
+    episode restarted 3 steps in was reported 8 steps long instead of 5)."""
+    from stable_baselines3.common.monitor import Monitor
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    kwargs = {"max_episode_steps": 5}
+    ours = SB3VecEnv(native(env_id, 2, **kwargs))
+    ref = DummyVecEnv([lambda: Monitor(gym.make("sma_gym:" + env_id, **kwargs)) for _ in range(2)])
+    action = np.zeros((2, *ours.action_space.shape), np.float32)
+    for indices in (None, [1], [0, 1]):
+        lengths = {}
+        for name, venv in (("ours", ours), ("ref", ref)):
+            venv.seed(0)
+            venv.reset()
+            for _ in range(3):
+                venv.step(action)
+            out = venv.env_method("reset", indices=indices)
+            chosen = [0, 1] if indices is None else indices
+            assert len(out) == len(chosen)
+            for obs, info in out:
+                assert np.shape(obs) == ours.observation_space.shape and isinstance(info, dict)
+            if env_id == "SMATracking-v0":
+                assert all(isinstance(info["position_m"], float) for _, info in out)
+            for _ in range(5):
+                _, _, dones, infos = venv.step(action)
+                for i in np.flatnonzero(dones):
+                    lengths.setdefault((name, int(i)), infos[i]["episode"]["l"])
+        assert lengths[("ours", chosen[0])] == lengths[("ref", chosen[0])] == 5
+    with pytest.raises(
+        ValueError, match=r"env_method\('reset', 'x'\): expected only the keywords 'seed' and 'options'"
+    ):
+        ours.env_method("reset", "x")
+
+
+def test_the_native_vector_envs_check_what_is_set_after_make_and_their_spec_says_their_limit():
+    """Found by an audit: ``render()`` before ``reset()`` failed inside numpy ("cannot
+    reshape array of size 0"), as Gymnasium's sync env refuses it; ``set_attr`` took a
+    ``max_episode_steps`` of 0 (every step ended every episode) or "10" (a numpy error at
+    the next step) and a ``render_mode`` the sub-envs' histories were not built for; SB3's
+    adapter over ``DictInfoToList`` failed at the first step; ``spec.max_episode_steps``
+    said 1000 whatever was given; and the bank's vector env listed the single bank env's
+    arguments for an unknown one."""
+    from gymnasium.error import ResetNeeded
+    from gymnasium.wrappers.vector import DictInfoToList
+
+    env = native(n=2, render_mode="rgb_array")
+    with pytest.raises(ResetNeeded, match=r"sub-envs \[0, 1\] were never reset: call reset\(\) before render\(\)"):
+        env.render()
+    env.reset(seed=0)
+    frames = env.render()
+    assert len(frames) == 2 and frames[0].shape[2] == 3  # a reset env without a step draws empty axes
+    frame = gym.make("sma_gym:SMATracking-v0", render_mode="rgb_array").unwrapped.render()
+    assert frame.dtype == np.uint8  # through unwrapped, before reset: empty axes, not a numpy error
+    venv = SB3VecEnv(native("SMATracking-v0", 2))
+    for value in (0, "10", 2.5):
+        with pytest.raises(ValueError, match=rf"max_episode_steps = {value!r}: expected"):
+            venv.set_attr("max_episode_steps", value)
+    venv.set_attr("max_episode_steps", 7)
+    assert venv.get_attr("max_episode_steps") == [7, 7] and venv.venv.spec.max_episode_steps == 7
+    with pytest.raises(ValueError, match=r"set_attr\('render_mode'\): fixed when the env is made"):
+        venv.set_attr("render_mode", "rgb_array")
+    with pytest.raises(ValueError, match=r"DictInfoToList: expected the vector env's own info dict"):
+        SB3VecEnv(DictInfoToList(native(n=2)))
+    for env_id in ("SMATracking-v0", "SMAMultiplexed-v0"):
+        for steps, spec_steps in ((5, 5), (-1, None)):
+            assert native(env_id, 2, max_episode_steps=steps).spec.max_episode_steps == spec_steps
+        assert gym.make_vec(native(env_id, 2, max_episode_steps=5).spec).unwrapped.max_episode_steps == 5
+    with pytest.raises(ValueError, match=r"'n_actuator'.*expected some of \['num_envs', 'n_actuators'") as err:
+        native("SMAMultiplexed-v0", 2, n_actuator=4)
+    assert "'max_episode_steps'" in str(err.value) and "'model'" in str(err.value)
+
+
 # --- item 8: contract slips ------------------------------------------------------------------------------
 
 

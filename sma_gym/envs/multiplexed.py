@@ -6,6 +6,7 @@ docstring of :class:`SMAMultiplexedEnv`.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Sequence
 from typing import Any
 
@@ -34,11 +35,12 @@ from sma_gym.envs.single import (
     Settings,
     SMAEnv,
     keyword_settings,
+    reject_unknown,
     spell_out_settings,
     with_settings,
 )
 from sma_gym.envs.task import UnstartedEnvs
-from sma_gym.envs.vector import BUILT_FROM, reset_arguments
+from sma_gym.envs.vector import BUILT_FROM, EpisodeLimit, reset_arguments
 from sma_gym.simulator import Simulator
 
 DEFAULT_N_ACTUATORS = 4
@@ -278,7 +280,7 @@ class SMAMultiplexedEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
 spell_out_settings(SMAMultiplexedEnv.__init__, _SETTINGS)
 
 
-class SMAMultiplexedVectorEnv(MadeWith, ImportableSpec, VectorEnv):
+class SMAMultiplexedVectorEnv(MadeWith, EpisodeLimit, VectorEnv):
     __doc__ = docs.env_doc(
         "``num_envs`` multiplexed banks simulated as one batch (the native vector env of ``SMAMultiplexed-v0``).",
         Description="""
@@ -322,7 +324,7 @@ class SMAMultiplexedVectorEnv(MadeWith, ImportableSpec, VectorEnv):
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
-    FIXED_AT_MAKE = (*BUILT_FROM, "n", "scheme", "multiplexer")
+    FIXED_AT_MAKE = (*BUILT_FROM, "n", "scheme", "multiplexer", "render_mode")
     """Attributes the simulator, the driver or the spaces were built from: adapters refuse
     to set them (the simulator would go on stepping with the old value)."""
 
@@ -340,8 +342,6 @@ class SMAMultiplexedVectorEnv(MadeWith, ImportableSpec, VectorEnv):
         **kwargs: Any,
     ):
         self.num_envs = require_int_range("num_envs", num_envs, 1, 1 << 16)
-        if max_episode_steps is not None:
-            max_episode_steps = require_int_range("max_episode_steps", max_episode_steps, 1, 1 << 40)
         self.max_episode_steps = max_episode_steps
         mode = autoreset_mode.value if isinstance(autoreset_mode, AutoresetMode) else autoreset_mode
         require_choice("autoreset_mode", mode, (AutoresetMode.NEXT_STEP.value,))
@@ -349,6 +349,11 @@ class SMAMultiplexedVectorEnv(MadeWith, ImportableSpec, VectorEnv):
             raise ValueError(f"render_mode = {render_mode!r}: expected None (the bank vector env does not render)")
         self.autoreset_mode = AutoresetMode.NEXT_STEP
         self.render_mode = None
+        # The bank env's own arguments but its render_mode, and this env's: an unknown one is
+        # named against these (the prototype below would list its own, render_mode included).
+        bank = [name for name in inspect.signature(SMAMultiplexedEnv).parameters if name != "render_mode"]
+        mine = [name for name in inspect.signature(SMAMultiplexedVectorEnv).parameters if name != "kwargs"]
+        reject_unknown({k: v for k, v in kwargs.items() if k not in bank}, (*mine, *(b for b in bank if b not in mine)))
         # One single env as the prototype: the same checks, settings and constants.
         self._bank = SMAMultiplexedEnv(n_actuators, cycling_frequency_hz, **kwargs)
         bank = self._bank

@@ -118,7 +118,8 @@ class EpisodePlot:
     def frame(self, history: EpisodeHistory, title: str, labels: Sequence[str] | None = None) -> np.ndarray:
         """The history as an (H, W, 3) uint8 array."""
         h = history.arrays()
-        per_actuator = {k: v.reshape(len(v), -1) for k, v in h.items() if k != "t"}
+        # Before the first step (a reset env, or one drawn through ``env.unwrapped``) no sample: empty axes.
+        per_actuator = {k: v.reshape(len(v), -1) if len(v) else v.reshape(0, 1) for k, v in h.items() if k != "t"}
         n = per_actuator["position"].shape[1] if len(h["t"]) else 1
         key = (title, n, tuple(labels or ()))
         if key != self._key:

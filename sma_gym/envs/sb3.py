@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode
-from gymnasium.wrappers.vector import NormalizeObservation
+from gymnasium.wrappers.vector import DictInfoToList, NormalizeObservation
 
 from sma_gym.extras import extra_error
 
@@ -102,6 +102,12 @@ class SB3VecEnv(VecEnv):
                     "SB3VecEnv over Gymnasium's NormalizeObservation: it cannot restart one sub-env on the step it "
                     "ends, as SB3 needs; expected stable_baselines3's VecNormalize on the adapter instead "
                     "(VecNormalize(SB3VecEnv(vector_env)))"
+                )
+            if isinstance(layer, DictInfoToList):
+                # The adapter reads one info dict of arrays; a list of dicts failed at the first step.
+                raise ValueError(
+                    "SB3VecEnv over Gymnasium's DictInfoToList: expected the vector env's own info dict of arrays "
+                    "(the adapter makes SB3's list of per-sub-env infos itself); leave the wrapper out"
                 )
             layer = getattr(layer, "env", None)
         self.venv = vector_env
@@ -219,13 +225,34 @@ class SB3VecEnv(VecEnv):
         """Call a method of the shared env; ``reset`` may address a subset of sub-envs."""
         chosen = self._indices(indices)
         env = self.venv.unwrapped
-        if method_name == "reset" and indices is not None:
-            if method_args or set(method_kwargs) - {"options"}:
-                raise ValueError("env_method('reset', indices=...): only an 'options' keyword is accepted for a subset")
-            return env.reset_envs(chosen, options=method_kwargs.get("options"))
+        if method_name == "reset":
+            if method_args or set(method_kwargs) - {"seed", "options"}:
+                raise ValueError(
+                    f"env_method('reset', {', '.join([*map(repr, method_args), *method_kwargs])}): expected only the "
+                    "keywords 'seed' and 'options', as an env's reset takes them"
+                )
+            return self._reset_some(chosen, method_kwargs.get("seed"), method_kwargs.get("options"))
         self._require_all(chosen, f"env_method({method_name!r})")
         result = getattr(env, method_name)(*method_args, **method_kwargs)
         return [result] * len(chosen)
+
+    def _reset_some(self, chosen: Sequence[int], seed: int | None, options: dict | None) -> list[Any]:
+        """``env_method("reset")``: a new episode in the sub-envs ``chosen`` (each given ``seed``,
+        as ``DummyVecEnv`` gives every env the same one), one ``(obs, info)`` per entry as an
+        env's reset returns it, and their episode statistics restarted, as ``Monitor.reset``
+        restarts them. Through ``reset(options={"reset_mask": ...})``, which every native
+        vector env and the Gymnasium wrappers in between take."""
+        if options is not None and not isinstance(options, dict):
+            raise ValueError(f"env_method('reset', options={options!r}): expected a dict or None")
+        mask = np.zeros(self.num_envs, dtype=bool)
+        mask[list(chosen)] = True
+        seeds = None if seed is None else [seed if m else None for m in mask]
+        obs, info = self.venv.reset(seed=seeds, options={**(options or {}), "reset_mask": mask})
+        self._set_reset_infos(info, mask)
+        self._returns[mask] = 0.0
+        self._lengths[mask] = 0
+        values = _per_env(info, self.num_envs, list(chosen))
+        return [(obs[i].copy(), {k: v[j] for k, v in values.items()}) for j, i in enumerate(chosen)]
 
     def _require_all(self, chosen: Sequence[int], what: str) -> None:
         if sorted(set(chosen)) != list(range(self.num_envs)):

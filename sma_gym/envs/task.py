@@ -372,10 +372,10 @@ class UnstartedEnvs:
             self._never[envs] = False
             self._all_started = not self._never.any()
 
-    def require_none(self) -> None:
+    def require_none(self, what: str = "step()") -> None:
         if not self._all_started:
             if not self._vector:
-                raise ResetNeeded("the env was never reset: call reset() before step()")
+                raise ResetNeeded(f"the env was never reset: call reset() before {what}")
             never = np.flatnonzero(self._never).tolist()
             shown = never if len(never) <= 10 else [*never[:10], "..."]
-            raise ResetNeeded(f"sub-envs {shown} were never reset: call reset() before step()")
+            raise ResetNeeded(f"sub-envs {shown} were never reset: call reset() before {what}")

@@ -8,12 +8,14 @@ of N Python env steps. The contract is the docstring of :class:`SMAVectorEnv`.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.envs.registration import EnvSpec
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -58,7 +60,34 @@ BUILT_FROM = (
 adds its own)."""
 
 
-class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
+class EpisodeLimit(ImportableSpec):
+    """Mixin of the native vector envs: ``max_episode_steps`` is checked whenever it is set
+    (through an adapter's ``set_attr`` too: a text or 0 was taken and failed or ended every
+    step), and ``spec.max_episode_steps`` is the limit the env applies (Gymnasium's
+    ``make_vec`` stores the registered spec's 1000 whatever was given)."""
+
+    _max_episode_steps: int | None = None
+
+    @property
+    def max_episode_steps(self) -> int | None:
+        """Truncate every episode after this many steps (``None``: never)."""
+        return self._max_episode_steps
+
+    @max_episode_steps.setter
+    def max_episode_steps(self, value: int | None) -> None:
+        self._max_episode_steps = None if value is None else require_int_range("max_episode_steps", value, 1, 1 << 40)
+
+    @property
+    def spec(self) -> EnvSpec | None:
+        spec = self._spec
+        return None if spec is None else dataclasses.replace(spec, max_episode_steps=self._max_episode_steps)
+
+    @spec.setter
+    def spec(self, value: EnvSpec | None) -> None:
+        ImportableSpec.spec.fset(self, value)
+
+
+class SMAVectorEnv(MadeWith, EpisodeLimit, VectorEnv):
     __doc__ = docs.env_doc(
         "``num_envs`` single-actuator envs of one variant, simulated as one batch.",
         Description="""
@@ -148,7 +177,7 @@ class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 100, "autoreset_mode": AutoresetMode.NEXT_STEP}
 
-    FIXED_AT_MAKE = (*BUILT_FROM, "variant")
+    FIXED_AT_MAKE = (*BUILT_FROM, "variant", "render_mode")
     """Attributes the simulator or the spaces were built from: changing one afterwards would
     leave the simulator stepping with the old value, so adapters refuse to set them."""
 
@@ -168,8 +197,6 @@ class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
         # The single envs' settings, conditions included (one definition, spelled out below).
         arguments = with_settings(locals(), VECTOR_SETTINGS, settings)
         self.num_envs = require_int_range("num_envs", num_envs, 1, 1 << 20)
-        if max_episode_steps is not None:
-            max_episode_steps = require_int_range("max_episode_steps", max_episode_steps, 1, 1 << 40)
         self.max_episode_steps = max_episode_steps
         mode = autoreset_mode.value if isinstance(autoreset_mode, AutoresetMode) else autoreset_mode
         self.autoreset_mode = _MODES[require_choice("autoreset_mode", mode, tuple(_MODES))]
@@ -405,6 +432,8 @@ class SMAVectorEnv(MadeWith, ImportableSpec, VectorEnv):
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to make_vec()")
             return (None,) * self.num_envs
+        # As Gymnasium's sync env (OrderEnforcing per sub-env): an empty episode is no frame.
+        self._unstarted.require_none("render()")
         if not self._plots:
             self._plots = [EpisodePlot() for _ in range(self.num_envs)]
         name = self.spec.id if self.spec else "SMA"
