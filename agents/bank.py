@@ -53,7 +53,7 @@ from sma_gym.electrical.multiplexer import scale_to_budget
 from sma_gym.envs import task
 from sma_gym_agents.card import ALLOCATIONS
 from sma_gym_agents.controllers import ControllerSpec
-from sma_gym_agents.policies import ControllerPolicy, env_attr, episode_starts
+from sma_gym_agents.policies import ControllerPolicy, env_attr, episode_starts, require_finite_observation
 
 
 def _require_scheme(env: Any, scheme: str, policy: str) -> None:
@@ -395,6 +395,8 @@ class BankAgent:
 
     def predict(self, observation: Any, state: Any = None, episode_start: Any = None, deterministic: bool = True):
         obs = np.asarray(observation, dtype=np.float32)
+        # A network maps NaN to torch's distribution error, which names no feature.
+        require_finite_observation(obs, BANK_FEATURES)
         single = obs.ndim == 1
         n = self.view.n_of(obs)
         batch = obs.reshape(-1, obs.shape[-1])

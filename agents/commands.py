@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -22,7 +23,7 @@ from sma_gym_agents.controllers import ALL_SPECS
 try:
     from sma_gym_agents import evaluation, report_targets
     from sma_gym_agents.report import table_6_1_markdown, write_report
-    from sma_gym_agents.trained import load_policy
+    from sma_gym_agents.trained import load_policy, zip_path
 except ModuleNotFoundError as err:
     # Listed by `sma-gym --help` as unavailable, naming the extra that makes both work, and
     # the one extra that makes evaluate work too (else it took two installs to find out).
@@ -197,7 +198,8 @@ def agent_names(policies: Sequence[str], names: Sequence[str]) -> list[str]:
     sweep is "SAC agent") followed by the part of its path that tells them apart, e.g.
     "SAC agent (seed-1/best_model)". The report has one row per name: without this every
     model of a sweep but the first was lost."""
-    resolved = [Path(p).with_suffix(".zip").resolve() for p in policies]
+    # The files load_policy reads (m.v1 and m.v2 are two models, m.v1 and m.v1.zip one).
+    resolved = [zip_path(p).resolve() for p in policies]
     for k, p in enumerate(resolved):
         if p in resolved[:k]:
             raise ValueError(f"--policy {policies[k]!r}: given twice; expected each model once")
@@ -238,6 +240,10 @@ def evaluate(
         paths = write_report(results, Path(out))
     if as_json:
         print(results.to_json())
+        # stdout stays one JSON document; what the notes say (an agent left out of an
+        # experiment, and why) was lost in this mode.
+        for note in results.notes:
+            print(f"note: {note}", file=sys.stderr)
     else:
         tables = [table_6_1_markdown(results, c) for c in results.distinct("6.1", "condition")]
         print("\n\n".join(tables) if tables else f"{len(results.records)} metrics")

@@ -51,7 +51,7 @@ from typing import Any
 
 import numpy as np
 
-from sma_gym._validation import require_positive
+from sma_gym._validation import require_int_range, require_positive
 from sma_gym.electrical.multiplexer import SCHEMES
 from sma_gym.envs.references import report_sine, report_step
 from sma_gym.envs.single import SELF_SENSING
@@ -79,6 +79,20 @@ SINE_SECONDS = 30.0
 SINE_WINDOW_S = (10.0, 30.0)
 EVAL_NOISE_M = 2e-6
 DEFAULT_SEEDS = (0, 1, 2)
+
+
+def require_seeds(seeds: Any) -> list[int]:
+    """``seeds`` as a list of integers in [0, 2**32 - 1], at least one: the seeds a run uses,
+    as given (until 2026-12-07 a rollout ran ``seeds[0] + i`` whatever followed it, and 1.5
+    ran as 1)."""
+    if isinstance(seeds, (str, bytes)) or not isinstance(seeds, Iterable):
+        raise ValueError(f"seeds = {seeds!r}: expected a sequence of integer seeds, e.g. [0, 1, 2]")
+    chosen = [require_int_range("seed", s, 0, 2**32 - 1) for s in seeds]
+    if not chosen:
+        raise ValueError("seeds = []: expected at least one integer seed, e.g. [0]")
+    return chosen
+
+
 BASELINE_PERIOD_S = 1e-3
 OSCILLATION_P2P_M = 0.1e-3
 BASELINE_ENV_KWARGS = {"control_period_s": BASELINE_PERIOD_S, "pwm_mode": "resolved"}
@@ -161,6 +175,11 @@ class PolicyEntry:
     env_kwargs: dict = field(default_factory=lambda: {"control_period_s": BASELINE_PERIOD_S})
     frame_stack: int = 1
     kind: str = "baseline"
+    shares_env: bool = False
+    """The policy reads nothing of its env but the constants of its own columns (the report's
+    controllers, :func:`baseline`), so several run side by side in one vector env
+    (:func:`batchable`). A policy of your own runs alone: batched, it saw the other entries'
+    columns in ``num_envs`` and the spaces (and failed on shapes)."""
 
 
 def baseline(spec: ControllerSpec | str, self_sensing: bool = False) -> PolicyEntry:
@@ -177,6 +196,7 @@ def baseline(spec: ControllerSpec | str, self_sensing: bool = False) -> PolicyEn
         s.label,
         lambda env, s=s: ControllerPolicy(s, env, filter_cutoff_hz=REPORT_FILTER_CUTOFF_HZ),
         env_kwargs=dict(BASELINE_ENV_KWARGS),
+        shares_env=True,
     )
 
 
@@ -270,7 +290,7 @@ def rollout(entry: PolicyEntry, **options: Any) -> Trace:
     """Run ``entry`` once per seed on ``reference`` for ``seconds``; record the true state.
 
     ``options`` are :func:`rollouts`'s keywords (``model``, ``reference``, ``seconds``,
-    ``seeds``, ``noise_m``, ``env_kwargs``). Seed i of the run is ``seeds[0] + i`` (sensor
+    ``seeds``, ``noise_m``, ``env_kwargs``). Column i of the run is seeded ``seeds[i]`` (sensor
     noise differs per seed). Agents trained on stacked observations get them stacked by
     stable-baselines3's own ``StackedObservations``, exactly as ``VecFrameStack`` did in
     training.
@@ -291,12 +311,13 @@ def rollouts(
     """:func:`rollout` for several entries side by side in one vector env (one trace each).
 
     The entries must share env id, env kwargs and frame stack (:func:`batchable`). Entry k
-    runs on columns k*S ... k*S + S - 1 (S = len(seeds)), seeded ``seeds[0] + i`` exactly as
+    runs on columns k*S ... k*S + S - 1 (S = len(seeds)), seeded ``seeds[i]`` exactly as
     when it runs alone, and its policy sees only its columns, so each trace equals the one
     :func:`rollout` gives; only the Python overhead per control step is shared.
     """
-    if not entries or not len(seeds):
-        raise ValueError(f"rollouts: {len(entries)} entries and seeds = {list(seeds)!r}: expected at least one of each")
+    seeds = require_seeds(seeds)
+    if not entries:
+        raise ValueError("rollouts: no entries: expected at least one policy entry")
     first = entries[0]
     if any(
         (e.env_id, e.env_kwargs, e.frame_stack) != (first.env_id, first.env_kwargs, first.frame_stack) for e in entries
@@ -312,7 +333,7 @@ def rollouts(
     for policy in policies:
         if hasattr(policy, "reset"):
             policy.reset()
-    obs, _ = venv.reset(seed=[int(seeds[0]) + i for _ in entries for i in range(width)])
+    obs, _ = venv.reset(seed=[s for _ in entries for s in seeds])
     n = width * len(entries)
     stacker = None
     if first.frame_stack > 1:
@@ -395,12 +416,12 @@ def batchable(entries: Sequence[PolicyEntry]) -> list[list[PolicyEntry]]:
     """
     groups: list[list[PolicyEntry]] = []
     for e in entries:
-        shareable = e.kind == "baseline" and e.env_id == "SMATracking-v0" and e.frame_stack == 1
+        shareable = e.shares_env and e.env_id == "SMATracking-v0" and e.frame_stack == 1
         last = groups[-1] if groups else None
         if (
             shareable
             and last
-            and last[0].kind == "baseline"
+            and last[0].shares_env
             and (last[0].env_id, last[0].env_kwargs, last[0].frame_stack) == (e.env_id, e.env_kwargs, 1)
         ):
             last.append(e)
@@ -624,6 +645,7 @@ def run_table_6_1(
     name), else to ``"model <name>"``: the report's numbers are set beside ``"standard"``
     only, so another actuator's results are never compared with the report's.
     """
+    _require_sine_seconds(sine_seconds)
     if condition is None:
         condition = table_6_1_condition(model)
     key = _model_key(model)
@@ -688,9 +710,22 @@ def run_chapter_7(
     conditions: Sequence[tuple[str, str]] = CHAPTER_7_CONDITIONS,
     sine_seconds: float = SINE_SECONDS,
 ) -> None:
+    """Chapter 7's conditions: Table 6.1's step and sine for ``entries`` on each preset."""
+    _require_sine_seconds(sine_seconds)
     for label, preset_name in conditions:
         for group in batchable(entries):
             _step_and_sine("7", group, preset_name, label, results, seeds, sine_seconds)
+
+
+def _require_sine_seconds(sine_seconds: Any) -> None:
+    """The sine is scored from ``SINE_WINDOW_S[0]`` on, over whole 10 s periods of the 0.1 Hz
+    sine: a shorter run failed with an ``IndexError`` after it had been simulated."""
+    shortest = SINE_WINDOW_S[0] + 10.0
+    if isinstance(sine_seconds, bool) or not isinstance(sine_seconds, (int, float)) or not sine_seconds >= shortest:
+        raise ValueError(
+            f"sine_seconds = {sine_seconds!r}: expected at least {shortest:g} s (the sine is scored from "
+            f"{SINE_WINDOW_S[0]:g} s on, over at least one 10 s period of the 0.1 Hz sine)"
+        )
 
 
 def _step_and_sine(
@@ -1078,7 +1113,8 @@ def evaluate(
     seeds: Sequence[int] = DEFAULT_SEEDS,
     baselines: Sequence[PolicyEntry] | None = None,
 ) -> Results:
-    """Run the experiments for the baselines and the given agents."""
+    """Run the experiments for the baselines and the given agents, each over ``seeds``."""
+    seeds = require_seeds(seeds)
     experiments = tuple(experiments)
     for e in experiments:
         if e not in EXPERIMENTS:
@@ -1095,6 +1131,10 @@ def evaluate(
     # scored on that model (Table 6.1 beside the baselines there), not on the report's.
     tracking_agents = [agent_entry(a) for a in tracking if _is_standard(trained_model(a))]
     base = list(baselines) if baselines is not None else default_entries()
+    sensing_labels: list[str] = []
+    if "self-sensing" in experiments:
+        # Checked before any experiment runs (a bad choice failed only after the others).
+        sensing_labels = [PID.label, with_feedforward(VSC3).label] if baselines is None else _report_labels(base)
     if "6.1" in experiments:
         for model, group in _by_model(tracking):
             condition = distinct_condition(results, table_6_1_condition(model), model)
@@ -1121,23 +1161,42 @@ def evaluate(
         ]
         run_chapter_9(chosen + ([banks[1]] if baselines is None else []), results, seeds=seeds)
         run_bank_step(banks, results, seeds)
+        # Each bank agent beside the bank baselines of its own scheme, at the n and on the
+        # model it trained with; agents that share all three share one run of the baselines
+        # (each baseline was run, and recorded, once per agent).
+        bank_groups: dict[tuple[str, int, str], tuple[Any, list[AgentPolicy]]] = {}
         for agent in bank_agents:
-            # Each bank agent beside the bank baselines of its own scheme, at the n and on the
-            # model it trained with.
             scheme = agent.env_kwargs.get("scheme", "fixed_slots")
             n = int(agent.env_kwargs.get("n_actuators", 4))
-            pool = bank_baselines(scheme)
-            run_bank_tracking(pool + [bank_agent_entry(agent)], results, n, scheme, seeds, model=trained_model(agent))
+            model = trained_model(agent)
+            bank_groups.setdefault((scheme, n, _model_key(model)), (model, []))[1].append(agent)
+        for (scheme, n, _), (model, group) in bank_groups.items():
+            pool = bank_baselines(scheme) + [bank_agent_entry(a) for a in group]
+            run_bank_tracking(pool, results, n, scheme, seeds, model=model)
     if "self-sensing" in experiments:
         # The report's self-sensing setup (§4.2): a fan; compared with the same controllers
         # reading the position sensor under the same conditions.
-        with_sensor = [e for e in base if e.name in ("PID", "VSC3 + FF")]
+        with_sensor = [e for e in base if e.name in sensing_labels]
         for model, group in _by_model(sensing, default=SELF_SENSING_MODEL):
-            readers = [baseline(PID, True), baseline(with_feedforward(VSC3), True)]
+            readers = [baseline(label, True) for label in sensing_labels]
             condition = distinct_condition(results, self_sensing_condition(model), model)
             entries = readers + [agent_entry(a) for a in group] + with_sensor
             run_table_6_1(entries, results, seeds, condition=condition, model=model)
     return results
+
+
+def _report_labels(entries: Sequence[PolicyEntry]) -> list[str]:
+    """The names of ``entries`` that are the report's controllers (the self-sensing
+    experiment runs each of them fed by resistance as well as by the sensor); until
+    2026-12-07 it ran PID and VSC3 + FF whatever ``baselines`` asked for."""
+    labels = {s.label for s in ALL_SPECS}
+    chosen = [e.name for e in entries if e.name in labels]
+    if not chosen:
+        raise ValueError(
+            f"baselines = {[e.name for e in entries]!r}: the self-sensing experiment runs the report's controllers "
+            f"fed by resistance; expected at least one of {sorted(labels)}"
+        )
+    return chosen
 
 
 SELF_SENSING_MODEL = SELF_SENSING.default_model

@@ -73,10 +73,10 @@ def _layers(env: Any) -> list[Any]:
     return layers
 
 
-def _width(layer: Any) -> int | None:
+def _shape(layer: Any) -> tuple[int, ...] | None:
     space = getattr(layer, "single_observation_space", None) or getattr(layer, "observation_space", None)
     shape = getattr(space, "shape", None)
-    return int(shape[-1]) if shape else None
+    return tuple(int(k) for k in shape) if shape else None
 
 
 def require_raw_observations(env: Any, who: str) -> int | None:
@@ -97,14 +97,16 @@ def require_raw_observations(env: Any, who: str) -> int | None:
                 f"{who}: the env's observations pass {type(layer).__name__}, but the controllers read the env's own "
                 "features; expected the env without it (for SB3's VecNormalize, norm_obs=False)"
             )
-    widths = [w for w in map(_width, layers) if w is not None]
-    if widths and widths[0] != widths[-1]:
+    # The whole shape: Gymnasium's FrameStackObservation keeps the width and adds a dimension
+    # (4 stacked frames were read as 4 envs).
+    shapes = [w for w in map(_shape, layers) if w is not None]
+    if shapes and shapes[0] != shapes[-1]:
         names = " <- ".join(type(layer).__name__ for layer in layers)
         raise ValueError(
-            f"{who}: a wrapper makes the env's observations {widths[0]} wide from {widths[-1]} ({names}; frame "
+            f"{who}: a wrapper makes the env's observations of shape {shapes[0]} from {shapes[-1]} ({names}; frame "
             "stacking?), but the controllers read one frame of the env's own features; expected the env without it"
         )
-    return widths[-1] if widths else None
+    return shapes[-1][-1] if shapes else None
 
 
 def episode_starts(episode_start: Any, n_batch: int, *, broadcast: bool = False) -> np.ndarray:

@@ -172,6 +172,14 @@ def save_policy(model: Any, path: str | Path, card: PolicyCard | Mapping[str, An
     return target
 
 
+def zip_path(path: str | os.PathLike) -> Path:
+    """The .zip a policy path names, as stable-baselines3's ``save`` writes it: the path
+    itself when it ends in .zip, else ``<path>.zip`` ("runs/x/best_model" names
+    runs/x/best_model.zip, "m.v1" names m.v1.zip, not m.zip)."""
+    p = Path(path)
+    return p if p.suffix == ".zip" else p.with_name(p.name + ".zip")
+
+
 def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
     """Open a model saved by ``train.py`` (``<name>.zip`` with its card ``<name>.json``).
 
@@ -188,7 +196,7 @@ def load_policy(path: str | Path, name: str | None = None) -> AgentPolicy:
                 f"policy = {str(path)!r}: not a .zip; expected a stable-baselines3 .zip written by train.py "
                 "(e.g. runs/<run>/best_model.zip)"
             )
-        p = p.with_name(p.name + ".zip")  # "runs/x/best_model" names runs/x/best_model.zip ("m.v1": m.v1.zip)
+        p = zip_path(p)
     if not p.is_file():
         raise ValueError(
             f"policy = {str(path)!r}: no such file (expected a stable-baselines3 .zip written by train.py)"

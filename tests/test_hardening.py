@@ -6,6 +6,7 @@ One section per item of the issue; each test fails on the code before the fix.
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import shutil
@@ -2075,8 +2076,12 @@ def test_a_controller_refuses_observations_it_would_misread():
     for env, message in (
         (VecNormalize(DummyVecEnv([tracking])), "pass VecNormalize"),
         (NormalizeObservation(gym.make("sma_gym:SMATracking-v0")), "pass NormalizeObservation"),
-        (FlattenObservation(FrameStackObservation(gym.make("sma_gym:SMATracking-v0"), 4)), "40 wide from 10"),
-        (VecFrameStack(DummyVecEnv([tracking]), 4), "40 wide from 10"),
+        (
+            FlattenObservation(FrameStackObservation(gym.make("sma_gym:SMATracking-v0"), 4)),
+            r"shape \(40,\) from \(10,\)",
+        ),
+        (FrameStackObservation(gym.make("sma_gym:SMATracking-v0"), 4), r"shape \(4, 10\) from \(10,\)"),
+        (VecFrameStack(DummyVecEnv([tracking]), 4), r"shape \(40,\) from \(10,\)"),
     ):
         with pytest.raises(ValueError, match=rf"PID: .*{message}"):
             ControllerPolicy("PID", env)
@@ -2223,3 +2228,118 @@ def test_calibration_names_missing_real_runs_in_one_line(tmp_path, monkeypatch, 
         with pytest.raises(SystemExit) as stop:
             main(["twin"])
         assert stop.value.code == 2 and needle in capsys.readouterr().err
+
+
+def test_a_rollout_runs_the_seeds_it_is_given_and_refuses_ones_that_are_no_integers():
+    """Found by an audit: a rollout ran ``seeds[0] + i`` whatever followed it (``(0, 7)`` ran
+    0 and 1, ``(3, 3, 3)`` three seeds), while the bank experiments of the same ``evaluate``
+    ran the seeds as given; ``1.5`` ran as 1."""
+    from sma_gym_agents.evaluation import baseline, evaluate, rollout
+
+    entry = baseline("PID")
+
+    def run(seeds):
+        return rollout(entry, reference="report-step", seconds=0.3, seeds=seeds)["position_measured_m"]
+
+    both, alone = run((0, 7)), run((7,))
+    assert np.array_equal(both[:, 1], alone[:, 0])
+    same = run((3, 3))
+    assert np.array_equal(same[:, 0], same[:, 1])
+    for seeds, message in (((1.5,), r"seed = 1\.5: expected an integer"), ((), r"seeds = \[\]"), (3, r"seeds = 3")):
+        with pytest.raises(ValueError, match=message):
+            run(seeds)
+    with pytest.raises(ValueError, match=r"seed = -1: expected an integer in \[0, 4294967295\]"):
+        evaluate(experiments=["6.1"], seeds=[-1])
+
+
+def test_the_self_sensing_experiment_runs_the_baselines_asked_for_and_refuses_none_before_any_run(monkeypatch):
+    """Found by an audit: ``--baselines VSC4`` with the self-sensing experiment ran PID and
+    VSC3 + FF fed by resistance and nothing fed by the sensor; VSC4 never ran."""
+    from sma_gym_agents import evaluation
+
+    ran = []
+    monkeypatch.setattr(evaluation, "run_table_6_1", lambda entries, *a, **k: ran.append([e.name for e in entries]))
+    evaluation.evaluate(experiments=["self-sensing"], seeds=[0], baselines=[evaluation.baseline("VSC4")])
+    assert ran == [["VSC4 (self-sensing)", "VSC4"]]
+    ran.clear()
+    evaluation.evaluate(experiments=["self-sensing"], seeds=[0])
+    assert ran == [["PID (self-sensing)", "VSC3 + FF (self-sensing)", "PID", "VSC3 + FF"]]
+    ran.clear()
+    mine = evaluation.PolicyEntry("mine", lambda env: None)
+    with pytest.raises(ValueError, match=r"baselines = \['mine'\]: the self-sensing experiment runs the report's"):
+        evaluation.evaluate(experiments=["6.1", "self-sensing"], seeds=[0], baselines=[mine])
+    assert ran == []  # refused before Table 6.1 ran
+
+
+def test_a_policy_of_ones_own_runs_alone_and_bank_agents_of_one_bank_share_the_baselines(monkeypatch):
+    """Found by an audit: a ``PolicyEntry`` of one's own (kind "baseline" by default) was batched
+    beside the report's controllers and saw their columns (it failed on shapes), and two bank
+    agents of one scheme, n and model ran and recorded every bank baseline twice."""
+    from types import SimpleNamespace
+
+    from sma_gym_agents import evaluation
+
+    pid, mine = evaluation.baseline("PID"), evaluation.PolicyEntry("mine", lambda env: None)
+    assert [[e.name for e in g] for g in evaluation.batchable([pid, evaluation.baseline("VSC2"), mine])] == [
+        ["PID", "VSC2"],
+        ["mine"],
+    ]
+    pools = []
+    for name in ("run_chapter_9", "run_bank_step"):
+        monkeypatch.setattr(evaluation, name, lambda *a, **k: None)
+    monkeypatch.setattr(evaluation, "run_bank_tracking", lambda pool, *a, **k: pools.append([e.name for e in pool]))
+    monkeypatch.setattr(evaluation, "bank_agent_entry", lambda a: evaluation.PolicyEntry(a.name, lambda env: None))
+    kwargs = {"scheme": "shared_budget", "n_actuators": 4}
+    agents = [
+        SimpleNamespace(name=f"agent {k}", env_id=evaluation.BANK_ENV_ID, env_kwargs=dict(kwargs)) for k in range(2)
+    ]
+    agents.append(
+        SimpleNamespace(name="agent 8", env_id=evaluation.BANK_ENV_ID, env_kwargs={**kwargs, "n_actuators": 8})
+    )
+    evaluation.evaluate(agents, experiments=["9"], seeds=[0])
+    baselines = [e.name for e in evaluation.bank_baselines("shared_budget")]
+    assert pools == [[*baselines, "agent 0", "agent 1"], [*baselines, "agent 8"]]
+
+
+def test_short_sines_dotted_model_names_bank_nans_and_json_notes_are_handled(tmp_path, monkeypatch, capsys):
+    """Found by an audit: a sine shorter than its scoring window failed with an IndexError
+    after it was simulated; two models m.v1 and m.v2 were "given twice" (both read as m.zip);
+    a NaN in a bank agent's observation gave torch's distribution error; ``--json`` dropped
+    the notes that say why an agent was left out of an experiment."""
+    from sma_gym_agents import commands, evaluation
+    from sma_gym_agents.bank import BankAgent
+
+    with pytest.raises(ValueError, match=r"sine_seconds = 8\.0: expected at least 20 s"):
+        evaluation.run_table_6_1([evaluation.baseline("PID")], evaluation.Results(), seeds=[0], sine_seconds=8.0)
+    names = commands.agent_names([str(tmp_path / "m.v1"), str(tmp_path / "m.v2")], ["agent", "agent"])
+    assert names == ["agent (m.v1)", "agent (m.v2)"]
+    with pytest.raises(ValueError, match=r"given twice"):
+        commands.agent_names([str(tmp_path / "m.v1.zip"), str(tmp_path / "m.v1")], ["a", "b"])
+    observation = np.zeros(40, np.float32)
+    observation[10] = np.nan
+    with pytest.raises(ValueError, match=r"observation holds NaN at feature 'position' of block 1"):
+        BankAgent(None, "fixed_slots", "bank", None).predict(observation)
+    results = evaluation.Results(notes=["agent x was left out of chapter 8"])
+    monkeypatch.setattr(commands.evaluation, "evaluate", lambda *a, **k: results)
+    assert commands.evaluate(None, [], True, ["6.1"], 1) == 0
+    out = capsys.readouterr()
+    assert json.loads(out.out) == [] and "note: agent x was left out of chapter 8" in out.err
+
+
+def test_a_seed_sweeps_iqm_counts_a_seed_that_did_not_finish_as_the_worst_not_as_nan():
+    """Found by an audit: one overheated seed of five (NaN in its goals.json) made the IQM and
+    its interval NaN and the table said nothing of why."""
+    from sma_gym_agents.training.compare import GOALS
+    from sma_gym_agents.training.config import RunConfig, parse_args
+    from sma_gym_agents.training.sweep import seeds_table, summarise_seeds
+
+    goal = GOALS["SMATracking-v0"][0]
+    values = {0: 0.50, 1: 0.55, 2: 0.60, 3: 0.52, 4: float("nan")}
+    by_seed = {s: {goal.name: {"agent_mm": v, "best_baseline_mm": 1.0, "met": v < 1.0}} for s, v in values.items()}
+    entry = summarise_seeds(by_seed, goals=GOALS["SMATracking-v0"])[goal.name]
+    agent = entry["agent_mm"]
+    assert agent["iqm"] == pytest.approx(np.mean([0.52, 0.55, 0.60]))  # the middle three: the NaN seed trimmed
+    assert agent["ci95"][0] == pytest.approx(0.5, abs=0.05) and agent["ci95"][1] == math.inf
+    assert agent["did_not_finish"] == 1 and entry["met"] == 4
+    table = seeds_table(RunConfig.from_args(parse_args(["--quick"])), list(values), {goal.name: entry}, [], 60.0, 1)
+    assert "nan" not in table and "count as the worst figure, +inf" in table

@@ -23,6 +23,7 @@ import argparse
 import contextlib
 import dataclasses
 import json
+import math
 import os
 import shutil
 import signal
@@ -81,7 +82,11 @@ def bootstrap_ci(
     samples = x[rng.integers(0, len(x), size=(resamples, len(x)))]
     stats = statistic(samples, axis=1)
     tail = 100 * (1 - confidence) / 2
-    lo, hi = np.percentile(stats, [tail, 100 - tail])
+    if np.isfinite(stats).all():
+        lo, hi = np.percentile(stats, [tail, 100 - tail])
+    else:
+        # A run counted as +inf (it did not finish): no interpolation, which gives inf - inf = NaN.
+        lo, hi = np.percentile(stats, tail, method="lower"), np.percentile(stats, 100 - tail, method="higher")
     return float(lo), float(hi)
 
 
@@ -124,10 +129,15 @@ def summarise_seeds(
         entry: dict[str, Any] = {}
         for key in figures:
             values = [float(r[key]) for r in runs]
+            # A seed whose run did not finish (NaN: it overheated the wire) is the worst an
+            # error can be, +inf, not a hole: one NaN made the IQM and its interval NaN
+            # and the goal "missed" though the other seeds met it.
+            worst = [math.inf if math.isnan(v) else v for v in values]
             entry[key] = {
                 "values": values,
-                "iqm": float(iqm(values)),
-                "ci95": list(bootstrap_ci(values, resamples=resamples)),
+                "iqm": float(iqm(worst)),
+                "ci95": list(bootstrap_ci(worst, resamples=resamples)),
+                "did_not_finish": sum(math.isnan(v) for v in values),
             }
         entry["met"] = sum(bool(r["met"]) for r in runs)
         entry["seeds"] = len(runs)
@@ -190,6 +200,19 @@ def seeds_table(
             f"| {name} | {cell(entry['agent_mm'])} | {cell(entry[baseline])} ({label}) "
             f"| {entry['met']}/{entry['seeds']} | {entry.get('status', '–')} |"
         )
+    unfinished = {
+        name: max(f.get("did_not_finish", 0) for f in entry.values() if isinstance(f, dict))
+        for name, entry in summary.items()
+    }
+    if any(unfinished.values()):
+        lines += [
+            "",
+            "Seeds whose run did not finish (the wire overheated: NaN in their goals.json) count as the worst figure, "
+            "+inf: "
+            + "; ".join(f"{name}: {k}" for name, k in unfinished.items() if k)
+            + ". The IQM trims them where there are enough seeds; the interval's upper end is inf where a resample "
+            "keeps them.",
+        ]
     if failed:
         lines += ["", f"Failed seeds (see logs/): {', '.join(map(str, failed))}; the table is over the others."]
     if sources:
