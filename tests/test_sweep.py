@@ -4,6 +4,7 @@ interval, the per-seed command lines, and a whole sweep with a stand-in for trai
 from __future__ import annotations
 
 import json
+import shutil
 import sys
 
 import numpy as np
@@ -261,11 +262,27 @@ def test_resume_refuses_seeds_it_would_leave_out_and_retrains_a_seed_whose_goals
         err = capsys.readouterr().err
         assert "holds seeds [" in err and "leave out" in err and "Traceback" not in err, err
         assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
-    (out / "seed-1" / "goals.json").write_text('{"goals": ')  # cut short by a full disk, say
-    assert main(["--seeds", "2", *options, "--resume", "--out", str(out)]) == 0
-    printed = capsys.readouterr().out
-    assert "seed 0 kept" in printed and "goals.json is not readable" in printed and "seed 1 kept" not in printed
-    assert json.loads((out / "seeds.json").read_text())["kept"] == [0]
+    # Cut short by a full disk, a figure gone, no goal, or run.json not an object (from an
+    # audit: the second crashed the table after the other seeds had trained, the third was
+    # counted as a seed of no goal, the fourth was a traceback).
+    step = "RMS step below every baseline"
+    for damaged in (
+        '{"goals": ',
+        json.dumps({"goals": {step: {"agent_mm": None, "best_baseline_mm": 2.0, "met": True}}}),
+        json.dumps({"goals": {}}),
+    ):
+        shutil.rmtree(out / "seed-1")
+        _finished_before(out / "seed-1", options, 1, agent_mm=7.0)
+        (out / "seed-1" / "goals.json").write_text(damaged)
+        assert main(["--seeds", "2", *options, "--resume", "--out", str(out)]) == 0
+        printed = capsys.readouterr().out
+        assert "seed 0 kept" in printed and "goals.json is not readable" in printed and "seed 1 kept" not in printed
+        assert json.loads((out / "seeds.json").read_text())["kept"] == [0]
+    (out / "seed-1" / "run.json").write_text("[]")
+    assert main(["--seeds", "2", *options, "--resume", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "run.json: not readable as a run's configuration (a JSON list, not an object)" in err
+    assert "Traceback" not in err
 
 
 def test_resume_options_are_checked(capsys, tmp_path):
@@ -288,7 +305,8 @@ def test_a_run_json_from_before_the_residual_filter_reads_as_no_filter(tmp_path)
     folder.mkdir()
     old = {k: v for k, v in run.as_dict().items() if k != "residual_filter_s"}
     (folder / "run.json").write_text(json.dumps({**old, "seed": 0}))
-    (folder / "goals.json").write_text('{"goals": {}}')
+    goals = {"RMS step below every baseline": {"agent_mm": 1.0, "best_baseline_mm": 2.0, "met": True}}
+    (folder / "goals.json").write_text(json.dumps({"goals": goals}))
     assert finished_seeds(run, [0], tmp_path) == [0]
     with pytest.raises(ValueError, match=r"residual_filter_s: 0.0 there, 0.1 now"):
         finished_seeds(replace(run, residual_filter_s=0.1), [0], tmp_path)
@@ -367,3 +385,31 @@ def test_overwrite_keeps_the_earlier_sweep_until_a_seed_of_the_new_one_kept_a_fi
     # A folder left by a sweep killed outright is no stranger to --resume.
     (out / sweep_module.PREVIOUS_SWEEP_DIR).mkdir()
     sweep_module.require_sweep_folder(out)
+
+
+def test_a_seed_that_ended_badly_after_writing_its_goals_counts_and_overwrite_keeps_to_its_own_kind(
+    tmp_path, monkeypatch, capsys
+):
+    """From an audit: a seed stopped or killed (the OOM killer's -9) after it had written its
+    goals.json, which a run writes last, was reported kept and then left out of the table as
+    failed; and --overwrite of a single run into a sweep's folder (or the reverse) left the
+    other kind's files beside its own, after which --resume refused the folder."""
+    ends_badly = FAKE_RESUMED_RUN + "\nimport os\nos._exit(9 if seed == 0 else 0)\n"
+    monkeypatch.setattr(sweep_module, "seed_command", lambda argv: [sys.executable, "-c", ends_badly, *argv])
+    options = ["--quick", "--residual", "none"]
+    out = tmp_path / "sweep"
+    assert main(["--seeds", "2", *options, "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "seed 0 finished, then ended with exit 9 (kept" in printed and "(1 finished)" not in printed
+    assert json.loads((out / "seeds.json").read_text())["failed"] == []
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert main([*options, "--overwrite", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"--overwrite: {out} holds a seed sweep's outputs (seeds.md, seeds.json, seed-0, seed-1)" in err
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    single = tmp_path / "single"
+    _finished_before(single, options, 0)
+    (single / "results.md").write_text("a single run's")
+    assert main(["--seeds", "2", *options, "--overwrite", "--out", str(single)]) == 2
+    assert f"--overwrite: {single} holds a single run's outputs (run.json, results.md)" in capsys.readouterr().err
+    assert (single / "results.md").read_text() == "a single run's" and not (single / "seed-0").exists()

@@ -34,6 +34,9 @@ def test_train_quick_writes_models_results_and_plots_that_reload(tmp_path):
         assert (out / name).exists(), name
     assert list((out / "checkpoints").glob("*.zip")) and list((out / "checkpoints").glob("*.json"))
     assert list((out / "tb").rglob("events.out.tfevents.*"))
+    # The record of how best_model.zip was chosen, written whole (SB3 rewrote it in place).
+    validation = np.load(out / "validation" / "evaluations.npz")
+    assert len(validation["timesteps"]) >= 1 and [p.name for p in (out / "validation").iterdir()] == ["evaluations.npz"]
     results = (out / "results.md").read_text()
     assert "| PID | standard |" in results and "| VSC3 + FF | standard |" in results and "## Goals" in results
     assert len(list((out / "evaluation").glob("*.png"))) >= 4
@@ -147,7 +150,36 @@ def test_ctrl_c_ends_train_py_with_a_line_not_a_traceback_and_keeps_the_checkpoi
 
     monkeypatch.setattr(learn_module, "train", after_a_checkpoint)
     assert main(["--quick", "--no-progress", "--out", str(tmp_path / "later")]) == 130
-    assert "keeps the checkpoints written so far" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"{tmp_path / 'later'} keeps 1 checkpoint(s) in checkpoints/ but no final model" in err
+    # --overwrite stopped after a checkpoint: the earlier run stays set aside, whole, and the
+    # message says where (from an audit: it was deleted, and the message promised checkpoints
+    # where there were none).
+    assert main(["--quick", "--no-progress", "--overwrite", "--out", str(earlier)]) == 130
+    err = capsys.readouterr().err
+    aside = earlier / ".previous-run"
+    assert f"the earlier run it was to replace is kept in {aside}" in err
+    assert (aside / "results.md").read_text() == "the earlier run's" and not (earlier / "results.md").exists()
+
+    def validated_only(run, out, **kwargs):
+        (out / "best_model.zip").write_bytes(b"PK")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(learn_module, "train", validated_only)
+    assert main(["--quick", "--no-progress", "--out", str(tmp_path / "validated")]) == 130
+    assert "keeps best_model.zip but no final model" in capsys.readouterr().err
+    monkeypatch.undo()
+
+    def scoring_with_a_best(run, out, **kwargs):
+        out.mkdir(parents=True)
+        for name in ("best_model.zip", "final_model.zip"):
+            (out / name).write_bytes(b"PK")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(run_module, "train_and_compare", scoring_with_a_best)
+    assert main(["--quick", "--no-progress", "--out", str(tmp_path / "best")]) == 130
+    # train.py scores best_model.zip: the hint named final_model.zip, another model.
+    assert f"sma-gym evaluate --policy {tmp_path / 'best' / 'best_model.zip'}" in capsys.readouterr().err
 
 
 def test_progress_lines_report_steps_rate_and_time_left():

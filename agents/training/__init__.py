@@ -43,7 +43,9 @@ choices. The run folder (named at the end) gets:
 
 A run never mixes its files with another run's: a non-empty ``--out`` is refused unless
 ``--overwrite`` is given (then the previous run's outputs are set aside, put back if the new
-run is refused or stopped before it trained, deleted once it has; a sweep deletes them first), a folder
+run is refused or stopped before its first checkpoint, left set aside in ``.previous-run`` if it is
+stopped later, deleted once it has trained; a sweep sets the earlier sweep aside and puts it back if
+it is stopped before any seed kept a file), a folder
 another run is writing to is refused (``.sma-gym.lock``), every file is written atomically,
 and each card records the SHA-256 of its zip (a card that does not match is refused).
 

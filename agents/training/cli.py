@@ -67,21 +67,37 @@ def main(argv: list[str] | None = None) -> int:
             from sma_gym_agents.training.sweep import stopped_note
 
             print(f"train.py: {how}{stopped_note(err, out)}", file=sys.stderr)
-        elif (out / "final_model.zip").is_file():
-            print(
-                f"train.py: {how} while scoring; training had finished: {out / 'final_model.zip'} is kept (and "
-                f"best_model.zip if validation had run) but no results.md; `sma-gym evaluate --policy "
-                f"{out / 'final_model.zip'}` scores it, or pass --overwrite to train again",
-                file=sys.stderr,
-            )
         else:
-            print(
-                f"train.py: {how}; {out} keeps the checkpoints written so far (checkpoints/, "
-                "best_model.zip if validation had run) but no final model or results.md; "
-                "train into a new --out or pass --overwrite to start again",
-                file=sys.stderr,
-            )
+            print(f"train.py: {how}{_interrupted_run_note(err, out)}", file=sys.stderr)
         return code
     print(table)
     print(f"run folder: {out}")
     return 0
+
+
+def _interrupted_run_note(err: BaseException, out: Path) -> str:
+    """What a single run stopped after its first file keeps, as it is on disk (the message
+    promised checkpoints where there were none, and named final_model.zip for scoring where
+    train.py scores best_model.zip), and where an earlier run it replaced is kept."""
+    best, final = out / "best_model.zip", out / "final_model.zip"
+    checkpoints = sorted((out / "checkpoints").glob("*.zip")) if (out / "checkpoints").is_dir() else []
+    kept = [f"{len(checkpoints)} checkpoint(s) in checkpoints/"] if checkpoints else []
+    kept += [p.name for p in (best, final) if p.is_file()]
+    if final.is_file():
+        scored = best if best.is_file() else final  # what train.py's comparison scores
+        note = (
+            f" while scoring; training had finished: {out} keeps {', '.join(kept)} but no results.md; "
+            f"`sma-gym evaluate --policy {scored}` scores it, or pass --overwrite to train again"
+        )
+    else:
+        note = (
+            f"; {out} keeps {', '.join(kept) or 'no model yet'} but no final model or results.md; "
+            "train into a new --out or pass --overwrite to start again"
+        )
+    previous = getattr(err, "previous_run", None)
+    if previous is not None:
+        note += (
+            f"; the earlier run it was to replace is kept in {previous} (move its files back into {out} "
+            "in place of this run's to restore it; the next --overwrite deletes it)"
+        )
+    return note

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -281,7 +282,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--overwrite",
         action="store_true",
         help="allow a non-empty --out: the previous run's outputs there are replaced (a single run puts them back if "
-        "it is refused or stopped before it trained; a sweep, if it is stopped before any seed kept a file) "
+        "it is refused or stopped before its first checkpoint, and keeps them in .previous-run if stopped later; "
+        "a sweep, if it is stopped before any seed kept a file) "
         "(default: refuse a non-empty --out)",
     )
     p.add_argument("--device", default="cpu", help="torch device, e.g. cpu, cuda, cuda:1, mps (default cpu)")
@@ -571,9 +573,24 @@ RUN_OUTPUTS = (
 MAX_SEED = 2**32 - 1
 """Largest ``--seed`` (numpy's and torch's seeds are 32-bit unsigned)."""
 
+
+def require_no_outputs_of(kind: str, paths: Sequence[Path], instead: str) -> None:
+    """``--overwrite`` replaces a run's outputs of its own kind only: refuse a folder that holds
+    ``kind``'s (``paths`` that exist), which would stay beside the new ones, mixed."""
+    present = [p.name for p in paths if p.exists() or p.is_symlink()]
+    if present:
+        shown = ", ".join(present[:5]) + (", ..." if len(present) > 5 else "")
+        folder = paths[0].parent
+        raise ValueError(
+            f"--overwrite: {folder} holds {kind}'s outputs ({shown}), which this run would leave beside its own; "
+            f"give {instead}, or move them away first"
+        )
+
+
 PREVIOUS_RUN_DIR = ".previous-run"
 """Where ``--overwrite`` keeps the earlier run's outputs (inside ``--out``) until the new run
-has trained: a run refused or stopped before it trained puts them back."""
+has trained: a run refused or stopped before its first checkpoint puts them back; one stopped
+later leaves them there (the stop's message names it) until the next ``--overwrite``."""
 
 
 def set_aside_outputs(out: Path) -> Path:

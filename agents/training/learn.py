@@ -7,6 +7,7 @@ atomically with the SHA-256 of its zip (:func:`sma_gym_agents.trained.save_polic
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from dataclasses import dataclass
@@ -81,6 +82,26 @@ class SaveBest(BaseCallback):
         return True
 
 
+class AtomicEvalCallback(EvalCallback):
+    """SB3's ``EvalCallback`` whose ``validation/evaluations.npz`` (the record of how
+    best_model.zip was chosen) is written whole: SB3 rewrites it in place after every
+    validation, so a stop while it wrote left it truncated. SB3 writes a file beside it,
+    which is renamed over it."""
+
+    def __init__(self, *args: Any, log_path: str, **kwargs: Any) -> None:
+        folder = Path(log_path)
+        super().__init__(*args, log_path=str(folder), **kwargs)
+        self.log_path = str(folder / ".evaluations.tmp")  # np.savez adds ".npz"
+        self._final = folder / "evaluations.npz"
+
+    def _on_step(self) -> bool:
+        before = len(self.evaluations_timesteps)
+        go_on = super()._on_step()
+        if len(self.evaluations_timesteps) > before:
+            os.replace(self.log_path + ".npz", self._final)
+        return go_on
+
+
 class ProgressLines(BaseCallback):
     """Progress as plain lines (CI, nohup, cluster logs: a redrawn bar is unreadable there)."""
 
@@ -132,7 +153,7 @@ def train(run: RunConfig, out: Path, progress: bool = True) -> TrainingInfo:
     model = make_model(run, venv, out)
     per_env = max(1, run.eval_freq // venv.num_envs)
     best = out / "best_model.zip"
-    evaluation = EvalCallback(
+    evaluation = AtomicEvalCallback(
         eval_env,
         n_eval_episodes=eval_env.num_envs,
         eval_freq=per_env,
@@ -161,7 +182,7 @@ def train(run: RunConfig, out: Path, progress: bool = True) -> TrainingInfo:
     return TrainingInfo(train_time_s=train_s, validation_references=references, timesteps=trained)
 
 
-def _finish_best(run: RunConfig, model: Any, evaluation: EvalCallback, best: Path, train_s: float) -> None:
+def _finish_best(run: RunConfig, model: Any, evaluation: AtomicEvalCallback, best: Path, train_s: float) -> None:
     """The best model's final card: the step it was chosen at and the training time."""
     best_at = int(model.num_timesteps)
     saved_best = best.exists()  # only SaveBest writes it: --out was empty or its earlier run set aside (--overwrite)

@@ -16,6 +16,7 @@ from sma_gym_agents.training.config import (
     RUN_OUTPUTS,
     RunConfig,
     put_back_outputs,
+    require_no_outputs_of,
     set_aside_outputs,
 )
 
@@ -27,32 +28,42 @@ def train_and_compare(
     ``run.json``, ``results.md`` and ``goals.json`` (with the code's provenance: the model
     changes between commits under the same env id). ``(results.md text, goals)``;
     ``ValueError`` if ``out`` is not new or empty (unless ``overwrite``) or is in use."""
-    from sma_gym._io import check_output_folder, locked_folder, write_json, write_text
+    from sma_gym._io import check_output_folder, locked_folder, signals_deferred, write_json, write_text
     from sma_gym.provenance import describe, provenance
 
     # Every argument, --out included, is checked before anything is created.
     check_output_folder(out, must_be_empty=not overwrite)
+    if overwrite and out.is_dir():
+        # A sweep's files would stay beside this run's, and its --resume then refused the folder.
+        sweep_files = [out / name for name in ("seeds.md", "seeds.json")] + sorted(out.glob("seed-[0-9]*"))
+        require_no_outputs_of("a seed sweep", sweep_files, "a new --out (or --seeds to overwrite the sweep)")
     # Imported after the checks: a bad option is refused without loading stable-baselines3.
     from sma_gym_agents.training.compare import compare
     from sma_gym_agents.training.learn import train
 
+    source = provenance()  # at the start: the code this process loaded, whatever is committed meanwhile
     with locked_folder(out):
         # --overwrite: the earlier run is set aside, not deleted, until this one has trained,
         # so that a run refused at its start (a value only the algorithm checks) changes nothing.
-        previous = set_aside_outputs(out) if overwrite else None
-        write_json(out / "run.json", run.as_dict(), default=str)
-        source = provenance()  # at the start: the code this process loaded, whatever is committed meanwhile
+        # Setting it aside and starting run.json happen whole: a Ctrl-C between them hid
+        # the earlier run in .previous-run, and the next --overwrite deleted it.
+        with signals_deferred():
+            previous = set_aside_outputs(out) if overwrite else None
+            write_json(out / "run.json", run.as_dict(), default=str)
         started = time.perf_counter()
         try:
             info = train(run, out, progress=progress)
         except BaseException as err:
-            unstarted = _forget_unstarted(out)
-            if previous is not None:
-                if unstarted:
+            # The clean-up happens whole too (a second signal, the terminal's beside a sweep's,
+            # interrupted it and left the earlier run set aside beside the new files).
+            with signals_deferred():
+                unstarted = _forget_unstarted(out)
+                if previous is not None and unstarted:
                     put_back_outputs(previous, out)
-                else:
-                    shutil.rmtree(previous)
             err.run_kept_nothing = unstarted  # what an interrupt's message may promise (cli.main)
+            # A run that wrote checkpoints keeps them; the earlier run stays set aside beside
+            # them (not mixed in, not deleted: until 2026-12-07 it was deleted), named by the message.
+            err.previous_run = previous if previous is not None and previous.exists() else None
             raise
         if previous is not None:
             shutil.rmtree(previous)

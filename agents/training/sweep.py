@@ -40,7 +40,15 @@ import numpy as np
 
 from sma_gym._io import sigterm_as_interrupt, stopped
 from sma_gym._jit import available_cores
-from sma_gym_agents.training.config import MAX_SEED, ROOT, RunConfig, build_parser, parse_args
+from sma_gym_agents.training.config import (
+    MAX_SEED,
+    ROOT,
+    RUN_OUTPUTS,
+    RunConfig,
+    build_parser,
+    parse_args,
+    require_no_outputs_of,
+)
 
 if TYPE_CHECKING:  # compare imports the evaluation harness; the sweep needs it only at the end
     from sma_gym_agents.training.compare import Goal
@@ -308,6 +316,33 @@ def read_goals(folder: Path) -> dict[str, dict[str, Any]]:
     return json.loads((folder / "goals.json").read_text())["goals"]
 
 
+def goals_problem(folder: Path, run: RunConfig) -> str | None:
+    """Why ``folder/goals.json`` is no finished run of ``run`` (None if it is): unreadable, none
+    of the env's goals, or a goal without numeric figures (NaN for a run that did not finish)
+    and a true/false ``met``. A parsed file with a ``null`` figure crashed the sweep's table after
+    the other seeds had trained, and one with no goals was counted as a seed of none."""
+    from sma_gym_agents.training.compare import GOALS, goal_key
+
+    try:
+        goals = read_goals(folder)
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        return str(err)
+    if not isinstance(goals, dict):
+        return f"'goals' is a {type(goals).__name__}, not a table"
+    # At least one of the env's goals (a run of an older version may lack a goal added since:
+    # its table row then counts the seeds that have it).
+    expected = [g.name for g in GOALS[goal_key(run)]]
+    if not any(name in goals for name in expected):
+        return f"none of the env's goals ({', '.join(expected)})"
+    for name, entry in goals.items():
+        if not isinstance(entry, dict) or not isinstance(entry.get("met"), bool):
+            return f"goal {name!r}: expected figures and a true/false 'met', got {entry!r}"
+        for key, value in entry.items():
+            if key != "met" and (isinstance(value, bool) or not isinstance(value, (int, float))):
+                return f"goal {name!r}: {key} = {value!r}, expected a number"
+    return None
+
+
 def read_provenance(folder: Path) -> dict[str, Any] | None:
     """The code a finished run recorded in ``folder/goals.json`` (None before it did)."""
     return json.loads((folder / "goals.json").read_text()).get("provenance")
@@ -370,9 +405,12 @@ def finished_seeds(run: RunConfig, seeds: list[int], out: Path) -> list[int]:
         if not record.is_file():
             continue
         try:
+            loaded = json.loads(record.read_text())
+            if not isinstance(loaded, dict):
+                raise TypeError(f"a JSON {type(loaded).__name__}, not an object")
             # A field added since that run was written (residual_filter_s) had its default then.
-            recorded = {**_field_defaults(), **json.loads(record.read_text()), "seed": None}
-        except (OSError, json.JSONDecodeError) as err:
+            recorded = {**_field_defaults(), **loaded, "seed": None}
+        except (OSError, json.JSONDecodeError, TypeError) as err:
             raise ValueError(f"--resume: {record}: not readable as a run's configuration ({err})") from None
         differs = sorted(k for k in expected.keys() | recorded.keys() if expected.get(k) != recorded.get(k))
         if differs:
@@ -382,14 +420,12 @@ def finished_seeds(run: RunConfig, seeds: list[int], out: Path) -> list[int]:
                 "resume with the options of that sweep, or choose a new --out"
             )
         if (folder / "goals.json").is_file():
-            try:
-                goals = read_goals(folder)
-                if not isinstance(goals, dict):
-                    raise TypeError(f"'goals' is a {type(goals).__name__}, not a table")
-            except (OSError, ValueError, KeyError, TypeError) as err:
+            problem = goals_problem(folder, run)
+            if problem is not None:
                 # A run writes it last and atomically: unreadable, it is no finished run.
                 print(
-                    f"train.py: seed {seed}: {folder / 'goals.json'} is not readable ({err}); trained again", flush=True
+                    f"train.py: seed {seed}: {folder / 'goals.json'} is not readable ({problem}); trained again",
+                    flush=True,
                 )
                 continue
             kept.append(seed)
@@ -430,7 +466,9 @@ def sweep(args: argparse.Namespace, run: RunConfig, out: Path) -> tuple[str, int
             children.stop()
             raise
     elapsed = time.perf_counter() - started
-    failed = [s for s, code in codes.items() if code != 0]
+    # A seed stopped or killed after it wrote its goals (which a run writes last) finished:
+    # it was reported "kept" and then left out of the table as failed.
+    failed = [s for s, code in codes.items() if code != 0 and goals_problem(out / f"seed-{s}", run) is not None]
     done = {s: read_goals(out / f"seed-{s}") for s in seeds if s not in failed}
     from sma_gym_agents.training.compare import GOALS, goal_key
 
@@ -577,6 +615,8 @@ def seed_status(code: int, out: Path, seed: int) -> str:
         # The stop reached it after it had written its results, which finished_note and
         # --resume count as finished ("stopped ... --resume runs it again" was not true).
         return "finished before the stop (kept)"
+    if (out / f"seed-{seed}" / "goals.json").is_file():
+        return f"finished, then ended with exit {code} (kept; see logs/seed-{seed}.log)"
     if code in STOPPED_CODES:
         return f"stopped (exit {code}: interrupted, not failed; --resume runs it again)"
     return f"FAILED (exit {code}, see logs/seed-{seed}.log)"
@@ -623,6 +663,9 @@ def sweep_main(args: argparse.Namespace, run: RunConfig) -> int:
         require_sweep_folder(out)
         if not out.exists():
             print(f"train.py: --resume: {out} does not exist yet; nothing to continue, the sweep starts", flush=True)
+    if args.overwrite:
+        # A single run's files would stay beside the sweep's, and --resume then refused the folder.
+        require_no_outputs_of("a single run", [out / name for name in RUN_OUTPUTS], "a new --out (or no --seeds)")
     with locked_folder(out):
         previous = set_aside_sweep(out) if args.overwrite else None
         try:
