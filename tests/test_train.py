@@ -490,3 +490,28 @@ def test_a_condition_the_agent_did_not_finish_is_its_worst_and_a_baseline_that_d
     bank.records += _records("9 bank tracking", "SAC", "16", "independent", {ENDED_EARLY: np.array([4.0])})
     text, _ = summarise(SimpleNamespace(env_id=BANK, algo="sac", env_kwargs={}), bank, "SAC", [("16", "")])
     assert "| PID (fixed slots) | 16 | 1.000 | 2.00 |\n| SAC | 16 | overheated at 4.0 s | overheated at 4.0 s |" in text
+
+
+def test_the_validation_record_is_written_beside_and_renamed_into_place(tmp_path, monkeypatch):
+    """From an audit: SB3's EvalCallback rewrote validation/evaluations.npz in place after every
+    validation, so a stop while it wrote truncated the record of how best_model.zip was chosen."""
+    from stable_baselines3 import SAC
+    from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from sma_gym_agents.training.learn import AtomicEvalCallback
+
+    env = DummyVecEnv([lambda: gym.make("sma_gym:SMATracking-v0", max_episode_steps=3)])
+    folder = tmp_path / "validation"
+    written = []
+    savez = np.savez
+    monkeypatch.setattr(np, "savez", lambda path, **arrays: (written.append(str(path)), savez(path, **arrays)))
+    callback = AtomicEvalCallback(env, n_eval_episodes=1, eval_freq=1, log_path=str(folder), verbose=0)
+    model = SAC("MlpPolicy", env, learning_starts=10, device="cpu")
+    model.set_logger(configure(None, []))  # learn() sets one
+    callback.init_callback(model)
+    for _ in range(2):
+        callback.on_step()
+    assert written and all(Path(p).name.startswith(".evaluations.tmp") for p in written)
+    assert [p.name for p in folder.iterdir()] == ["evaluations.npz"]
+    assert len(np.load(folder / "evaluations.npz")["timesteps"]) == 2
