@@ -404,6 +404,8 @@ def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int, threads: int
         removed=[r["effect"] for r in result.rounds[-1].get("removed") or []] if result.rounds else [],
         # Every pruning check (each earlier effect's ΔBIC and held-out gain of keeping it).
         pruning=(result.rounds[-1].get("pruning") or []) if result.rounds else [],
+        # Every replacement tried (an earlier effect against its round's rivals).
+        swaps=(result.rounds[-1].get("swaps") or []) if result.rounds else [],
         # Every round's candidates in brief: why a name was or was not given.
         round_candidates=round_candidates(result),
         position_rms_before_m=result.gap_before.get("heldout", {}).get("position"),
@@ -1040,6 +1042,7 @@ def run_pairs(
                 round_effects=[r.get("effect") for r in result.rounds],
                 removed=[r["effect"] for r in result.rounds[-1].get("removed") or []],
                 pruning=result.rounds[-1].get("pruning") or [],
+                swaps=result.rounds[-1].get("swaps") or [],
                 heldout_final=final_heldout(result),
                 round_candidates=round_candidates(result),
                 seconds=time.perf_counter() - t0,

@@ -94,64 +94,43 @@ def two_effects(truth: ModelConfig, effect: str, form: str, seed: int):
     return trace
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "a known confident wrong name since the Stribeck form's slide friction was corrected "
-        "(2026-12-07, docs/model.md §8): with the whole friction the data name minor_loop_width "
-        "(held out +65 %) over the friction (+47 %) in round 1, and round 2 adds the lag"
-    ),
-)
 def test_two_hidden_effects_are_both_named_and_nothing_more():
     """Sensor lag (second-order form) and Stribeck friction hidden together, nominal
-    perturbed by 5 %. Round 1 alone is ambiguous: look-alikes of the friction that hold the
-    sleigh after a reversal (``minor_loop_width``, the friction itself, an Abbe offset)
-    predict the held-out data best, and the lag, by far the best on the fitted data,
-    predicts worse alone. The ambiguous round refits its candidates of evidence in their
-    other forms (since 2026-12-05: the lag moves to its hidden second-order form, the Abbe
-    offset to its wear form), then pairs the lag with the rivals and names it jointly with
-    ``minor_loop_width`` (9.4x the noise held out; until 2026-12-02 with the friction
-    itself); round 2 then adds the friction (held out 9.4x -> 4.1x), and the pruning takes
-    the width out again (keeping it gains -0.4 % held out). The answer is the two hidden
-    effects and nothing more, the lag in its second-order form. (Until 2026-11-28 only the
-    held-out best was paired beyond the first three rivals, and this case ended ambiguous
-    in round 1.)
+    perturbed by 5 %. Round 1 names ``minor_loop_width`` (ΔBIC -334, held out +65 %), a
+    look-alike of the friction (both hold the sleigh after a reversal), over the friction
+    itself (-593, +47 %) and an Abbe offset, all three supported; the lag, by far the best
+    on the fitted data (-1465), predicts only 17 % better alone. Round 2 adds the lag (6.63x
+    the noise held out), and the friction is not supported on top of the width. With the
+    lag in the model the friction, a rival of round 1, is fitted in the width's place
+    (``workflow._swapped``): ΔBIC -289 and 64 % better held out, so it replaces the width.
+    The answer is the two hidden effects and nothing more.
 
-    Until 2026-12-07 the data's Stribeck friction slid with theta (0.5-1) of its force (a
-    kernel bug, docs/model.md §8); on the corrected data round 1 names ``minor_loop_width``
-    (ΔBIC -334, held out +65 %) ahead of the friction (-593, +47 %), round 2 adds the lag
-    (6.63x the noise), and the friction is not supported on top: the answer is the width
-    and the lag, a confident wrong name, kept here as a known miss (strict xfail: it fails
-    when the diagnosis gets it right again, so that the marker goes).
+    History: until 2026-12-07 the data's Stribeck friction slid with theta (0.5-1) of its
+    force (a kernel bug, docs/model.md §8), and an ambiguous round 1 paired the lag with the
+    width; on the corrected data the answer was the width and the lag, a confident wrong
+    name (a strict xfail here until the replacement step, 2026-12-07).
 
-    Two rounds, as the pair test below: a third (measured 2026-12-06) finds nothing on top
-    of the two (``unexplained`` at 4.11x the noise, the same model and verdict) but takes
-    400 s of the 600 and two thirds of this test's CPU time, 12 of the suite's 44 CPU
-    minutes. Later rounds that add nothing are judged over many cases by
-    ``benchmarks/bench_diagnosis.py --pairs``, and the rules they apply by
+    Two rounds: a third finds nothing on top of the two and took two thirds of this test's
+    CPU time (measured 2026-12-06). Later rounds that add nothing are judged over many
+    cases by ``benchmarks/bench_diagnosis.py --pairs``, and the rules they apply by
     ``tests/test_diagnosis_rules.py``."""
     truth = ModelConfig().with_effect("sensor_lag", {"time_constant_s": 0.05}, "second-order")
     trace = two_effects(truth, "coulomb_friction", "stribeck", seed=7)
     result = diagnose([trace("steps", FIT_SECONDS)], [trace("sine", HELD_SECONDS)], ModelConfig(), max_rounds=2)
     assert result.verdict == "effects"
     assert sorted(result.effects_found) == ["coulomb_friction", "sensor_lag"]
-    first = result.rounds[0]
-    assert first["verdict"] == "effects" and "sensor_lag" in first["effect"]
-    # The joint pair, not one of its members, beat the round's single candidates: single
-    # look-alikes were supported, the lag alone (in its hidden form already) was not.
-    singles = {c["name"]: c for c in first["candidates"] if " + " not in c["name"]}
-    assert singles["minor_loop_width"]["supported"] and not singles["sensor_lag"]["supported"]
-    assert singles["sensor_lag"]["form"] == "second-order"
-    assert [r["round"] for r in result.rounds] == [1, 2] and result.rounds[1]["effect"] == "coulomb_friction"
-    # Whatever a round added that is not hidden was taken out again by the pruning.
-    named = {e for r in result.rounds for e in ([r["effect"]] if isinstance(r["effect"], str) else r["effect"] or [])}
-    removed = {x["effect"] for r in result.rounds for x in r.get("removed") or []}
-    assert named - {"coulomb_friction", "sensor_lag"} <= removed
-    active = {s.name: s for s in result.corrected_model.effects.active()}
-    assert set(active) == {"coulomb_friction", "sensor_lag"}
-    assert active["sensor_lag"].form == "second-order"
-    held = [r["heldout_normalised_rms"] for r in result.rounds]
-    assert held[-1] < 0.25 * first["nominal_refit_heldout_normalised_rms"]
+    first, last = result.rounds
+    assert first["verdict"] == "effect" and first["effect"] == "minor_loop_width"
+    singles = {c["name"]: c for c in first["candidates"]}
+    assert singles["minor_loop_width"]["supported"] and singles["coulomb_friction"]["supported"]
+    assert last["effect"] == "sensor_lag"
+    # The friction replaced the width once the lag was in the model; the record says so.
+    swap = next(s for s in last["swaps"] if s["swapped"])
+    assert (swap["effect"], swap["rival"]) == ("minor_loop_width", "coulomb_friction")
+    assert swap["delta_bic_of_rival"] < -10 and swap["heldout_gain_of_rival"] > 0.05
+    assert last["heldout_normalised_rms"] == swap["heldout_normalised_rms_with_rival"]
+    assert {s.name for s in result.corrected_model.effects.active()} == {"coulomb_friction", "sensor_lag"}
+    assert last["heldout_normalised_rms"] < 0.25 * first["nominal_refit_heldout_normalised_rms"]
     assert result.gap_after["heldout"]["position"] < 0.2 * result.gap_before["heldout"]["position"]
 
 

@@ -1415,6 +1415,161 @@ def test_an_effect_a_later_round_made_redundant_is_taken_out(cost_without, rms_w
         assert any(bars)
 
 
+@pytest.mark.parametrize(
+    ("rival_costs", "rival_rms", "swapped"),
+    [
+        # Fits better in its place (ΔBIC -288) and predicts 40 % better: the case of
+        # tests/test_diagnosis.py (a width named for a friction, then the lag).
+        ((300.0,), (1.2,), "coulomb_friction"),
+        ((300.0,), (1.95,), None),  # fits better, predicts only 2.5 % better: within the margin
+        ((498.0,), (1.2,), None),  # predicts better, but the fitted data hardly tell (ΔBIC -4)
+        ((700.0,), (1.2,), None),  # predicts better, fits worse: the bars disagree
+        ((300.0, 350.0), (1.6, 1.2), "abbe_offset"),  # both pass: the better held out replaces it
+    ],
+)
+def test_an_earlier_effect_is_replaced_by_a_rival_of_its_round_only_when_both_bars_prefer_it(
+    rival_costs, rival_rms, swapped
+):
+    """Round 1 named a minor-loop width over a Coulomb friction and an Abbe offset (all three
+    supported: each holds the sleigh after a reversal, the width predicted best alone), round
+    2 a sensor lag. With the lag in the model each rival of round 1 is fitted in the width's
+    place, and replaces it only when the model with it fits better by the BIC bar *and*
+    predicts the held-out data better by more than the margin within which candidates are
+    indistinguishable (5 %); of several that do, the best held out."""
+    base = tuple(p for p in fitting.NOMINAL if p.kind != "offset") + (fitting.RESISTIVITY,)
+    lag = fitting.effect_parameters("sensor_lag")
+    full_params = base + fitting.effect_parameters("minor_loop_width") + lag
+    rivals = ["coulomb_friction", "abbe_offset"][: len(rival_costs)]
+    held = HeldOut()
+    costs = {full_params: 500.0}
+    held.residuals[full_params] = smooth(0, 2.0, 50)
+
+    def fitted(params, values=None):
+        return SimpleNamespace(
+            name="fit",
+            parameters=params,
+            values=np.zeros(len(params)) if values is None else values,
+            cost=costs[params],
+            n=1000,
+            k=len(params),
+            correlation_time_samples=1.0,
+            values_by_name=lambda: {p.name: 0.0 for p in params},
+            model=None,
+            offset=0.0,
+        )
+
+    starts = []
+    for k, (name, cost, rms) in enumerate(zip(rivals, rival_costs, rival_rms, strict=True)):
+        params = base + lag + fitting.effect_parameters(name)
+        costs[params] = cost
+        held.residuals[params] = smooth(1 + k, rms, 50)
+
+    def fit(name, params, **options):
+        starts.append(options["warm"])
+        return fitted(params)
+
+    for name in rivals:
+        costs[base + fitting.effect_parameters(name)] = 600.0
+    round_fits = [
+        Candidate(name, fitted(base + fitting.effect_parameters(name), np.full(len(base) + 1, 7.0)), 0.0, 1.0)
+        for name in rivals
+    ]
+    problem = SimpleNamespace(fit=fit)
+    name, fit_left, records = workflow._swapped(
+        "minor_loop_width", round_fits, fitted(full_params), problem, held, lambda m: None
+    )
+    assert [(r["effect"], r["rival"]) for r in records] == [("minor_loop_width", r) for r in rivals]
+    assert [r["swapped"] for r in records] == [r == swapped for r in rivals]
+    # Each rival starts from the model and from its own values of round 1.
+    own = fitting.effect_parameters(rivals[0])[0].name
+    assert starts[0][own] == 7.0 and starts[0][lag[0].name] == 0.0
+    if swapped is None:
+        assert name is None and fit_left is None
+    else:
+        assert name == swapped
+        assert {p.effect for p in fit_left.parameters if p.kind == "effect"} == {swapped, "sensor_lag"}
+        record = next(r for r in records if r["swapped"])
+        assert record["delta_bic_of_rival"] < -workflow.BIC_THRESHOLD
+        assert record["heldout_gain_of_rival"] > workflow.PRUNE_MARGIN
+
+
+def test_a_rival_of_a_later_round_is_fitted_with_its_own_parameters_only():
+    """A rival of round 2 was fitted on top of round 1's effect: its round fit holds that
+    effect's parameters too, which the model it is tried in has already (they were given
+    twice). Round 1 found a latent heat, round 2 a minor-loop width with a Coulomb friction
+    supported beside it, round 3 a sensor lag: the friction is fitted in the width's place
+    with the latent heat and the lag once each."""
+    base = tuple(p for p in fitting.NOMINAL if p.kind != "offset") + (fitting.RESISTIVITY,)
+    heat, width, lag, friction = (
+        fitting.effect_parameters(e) for e in ("latent_heat", "minor_loop_width", "sensor_lag", "coulomb_friction")
+    )
+    full = SimpleNamespace(
+        name="fit",
+        parameters=base + heat + width + lag,
+        values=np.zeros(len(base) + 3),
+        cost=500.0,
+        n=1000,
+        k=len(base) + 3,
+        correlation_time_samples=1.0,
+        values_by_name=lambda: {},
+        model=None,
+        offset=0.0,
+    )
+    round_fit = SimpleNamespace(parameters=base + heat + friction, values=np.zeros(len(base) + 2))
+    fitted = []
+
+    def fit(name, params, **options):
+        fitted.append(params)
+        return SimpleNamespace(**{**vars(full), "parameters": params, "cost": 600.0, "k": len(params)})
+
+    held = HeldOut()
+    held.residuals[full.parameters] = smooth(0, 2.0, 50)
+    held.residuals[base + heat + lag + friction] = smooth(1, 2.0, 50)
+    workflow._swapped(
+        "minor_loop_width",
+        [Candidate("coulomb_friction", round_fit, 0.0, 1.0)],
+        full,
+        SimpleNamespace(fit=fit),
+        held,
+        lambda m: None,
+    )
+    assert fitted == [base + heat + lag + friction]
+
+
+def test_a_rival_that_replaces_an_earlier_effect_is_what_the_diagnosis_names(monkeypatch):
+    """Round 1 names a minor-loop width with a Coulomb friction and a sensor lag supported
+    beside it (the lag is found later, so it is no rival), round 2 the lag. The width's rival
+    replaces it: the verdict, the effects found and the corrected model carry the friction,
+    and the last round's record holds the replacement and the model's held-out score."""
+    base = ModelConfig()
+    width = base.with_effect("minor_loop_width", {"min_width_share": 0.5})
+    both = width.with_effect("sensor_lag", {"time_constant_s": 0.05})
+    swapped = base.with_effect("coulomb_friction", {"force_n": 0.6}).with_effect(
+        "sensor_lag", {"time_constant_s": 0.05}
+    )
+    first = round_of("effect", "minor_loop_width", (base, 29.0), (width, 10.1), 40.0)
+    rival = Candidate("coulomb_friction", fit_that_left(base), 0.0, 15.5, supported=True)
+    lag = Candidate("sensor_lag", fit_that_left(base), 0.0, 24.1, supported=True)
+    first.candidates = [first.ref, rival, lag, Candidate("latent_heat", fit_that_left(base), 0.0, 28.0)]
+    rounds = [first, round_of("effect", "sensor_lag", (width, 10.1), (both, 6.63), 10.1)]
+    tried = []
+
+    def swap(name, rivals, full, problem, held_problem, say):
+        tried.append((name, [c.name for c in rivals]))
+        record = {"effect": name, "rival": rivals[0].name, "swapped": True, "heldout_normalised_rms_with_rival": 2.4}
+        return rivals[0].name, fit_that_left(swapped), [record]
+
+    monkeypatch.setattr(workflow, "_pruned", lambda *args: (None, None, []))
+    monkeypatch.setattr(workflow, "_swapped", swap)
+    effects = ["minor_loop_width", "coulomb_friction", "sensor_lag", "latent_heat"]
+    result = diagnose_faked(monkeypatch, rounds, effects, max_rounds=2)
+    assert tried == [("minor_loop_width", ["coulomb_friction"])]
+    assert result.verdict == "effects" and result.effects_found == ["coulomb_friction", "sensor_lag"]
+    assert sorted(s.name for s in result.corrected_model.effects.active()) == ["coulomb_friction", "sensor_lag"]
+    last = result.rounds[-1]
+    assert last["swaps"][0]["rival"] == "coulomb_friction" and last["heldout_normalised_rms"] == 2.4
+
+
 def test_the_generic_way_to_tell_candidates_apart_fits_their_number_and_the_data():
     """It said "both effects ... with resistance measured" for four candidates on files that
     measured resistance (found by a user)."""

@@ -232,6 +232,13 @@ def _round_lines(result: Diagnosis) -> list[str]:
                 f"held out {removed['heldout_gain_of_keeping']:+.1%}; without it "
                 f"{removed['heldout_normalised_rms_without']:.3g})"
             )
+        for swap in r.get("swaps") or []:
+            if swap["swapped"]:
+                effect = f"{effect}; " if effect else ""
+                effect += (
+                    f"then {swap['rival']} in place of {swap['effect']} (ΔBIC {swap['delta_bic_of_rival']:+.1f}, "
+                    f"held out {swap['heldout_gain_of_rival']:+.1%}: {swap['heldout_normalised_rms_with_rival']:.3g})"
+                )
         position = r["gap"]["heldout"].get("position", math.nan)
         bounds = "; ".join(r["parameters_at_bounds"]) or "none"
         lines.append(
@@ -276,6 +283,9 @@ def _round_label(result: Diagnosis, entry: dict[str, Any]) -> str:
         added = f"{entry['verdict']}:\nnothing added"
     for removed in entry.get("removed") or []:
         added += f"\n- {removed['effect']}"
+    for swap in entry.get("swaps") or []:
+        if swap["swapped"]:
+            added += f"\n{swap['effect']} -> {swap['rival']}"
     return f"round {entry['round']}\n{added}"
 
 
