@@ -1568,6 +1568,13 @@ def test_a_rival_that_replaces_an_earlier_effect_is_what_the_diagnosis_names(mon
     assert sorted(s.name for s in result.corrected_model.effects.active()) == ["coulomb_friction", "sensor_lag"]
     last = result.rounds[-1]
     assert last["swaps"][0]["rival"] == "coulomb_friction" and last["heldout_normalised_rms"] == 2.4
+    # The report's table and staircase say what replaced what.
+    from sma_gym.diagnosis.report import _round_label, _round_lines
+
+    last["swaps"][0].update(delta_bic_of_rival=-289.3, heldout_gain_of_rival=0.64)
+    row = next(line for line in _round_lines(result) if line.startswith("| 2 |"))
+    assert "then coulomb_friction in place of minor_loop_width (ΔBIC -289.3, held out +64.0%: 2.4)" in row
+    assert _round_label(result, last).endswith("minor_loop_width -> coulomb_friction")
 
 
 def test_the_generic_way_to_tell_candidates_apart_fits_their_number_and_the_data():
