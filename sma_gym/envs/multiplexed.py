@@ -351,9 +351,10 @@ class SMAMultiplexedVectorEnv(MadeWith, EpisodeLimit, VectorEnv):
         self.render_mode = None
         # The bank env's own arguments but its render_mode, and this env's: an unknown one is
         # named against these (the prototype below would list its own, render_mode included).
-        bank = [name for name in inspect.signature(SMAMultiplexedEnv).parameters if name != "render_mode"]
+        of_bank = [name for name in inspect.signature(SMAMultiplexedEnv).parameters if name != "render_mode"]
         mine = [name for name in inspect.signature(SMAMultiplexedVectorEnv).parameters if name != "kwargs"]
-        reject_unknown({k: v for k, v in kwargs.items() if k not in bank}, (*mine, *(b for b in bank if b not in mine)))
+        accepted = (*mine, *(name for name in of_bank if name not in mine))
+        reject_unknown({k: v for k, v in kwargs.items() if k not in of_bank}, accepted)
         # One single env as the prototype: the same checks, settings and constants.
         self._bank = SMAMultiplexedEnv(n_actuators, cycling_frequency_hz, **kwargs)
         bank = self._bank
