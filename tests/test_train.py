@@ -497,11 +497,12 @@ def test_the_validation_record_is_written_beside_and_renamed_into_place(tmp_path
     validation, so a stop while it wrote truncated the record of how best_model.zip was chosen."""
     from stable_baselines3 import SAC
     from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.monitor import Monitor
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     from sma_gym_agents.training.learn import AtomicEvalCallback
 
-    env = DummyVecEnv([lambda: gym.make("sma_gym:SMATracking-v0", max_episode_steps=3)])
+    env = DummyVecEnv([lambda: Monitor(gym.make("sma_gym:SMATracking-v0", max_episode_steps=3))])
     folder = tmp_path / "validation"
     written = []
     savez = np.savez
