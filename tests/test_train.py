@@ -142,6 +142,7 @@ def test_ctrl_c_ends_train_py_with_a_line_not_a_traceback_and_keeps_the_checkpoi
     err = capsys.readouterr().err
     assert "before the first checkpoint; nothing of this run is kept" in err and "keeps the checkpoints" not in err
     assert (earlier / "checkpoints" / "model_500_steps.zip").read_text() == "the earlier run's"  # put back
+    assert not (earlier / ".previous-run").exists()
 
     def after_a_checkpoint(run, out, **kwargs):
         (out / "checkpoints").mkdir()
