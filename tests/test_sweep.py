@@ -405,7 +405,7 @@ def test_a_seed_that_ended_badly_after_writing_its_goals_counts_and_overwrite_ke
     before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert main([*options, "--overwrite", "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert f"--overwrite: {out} holds a seed sweep's outputs (seeds.md, seeds.json, seed-0, seed-1)" in err
+    assert f"--overwrite: {out} holds a seed sweep's outputs (seeds.md, seeds.json, logs, seed-0, seed-1)" in err
     assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
     single = tmp_path / "single"
     _finished_before(single, options, 0)

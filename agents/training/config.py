@@ -574,15 +574,26 @@ MAX_SEED = 2**32 - 1
 """Largest ``--seed`` (numpy's and torch's seeds are 32-bit unsigned)."""
 
 
-def require_no_outputs_of(kind: str, paths: Sequence[Path], instead: str) -> None:
-    """``--overwrite`` replaces a run's outputs of its own kind only: refuse a folder that holds
-    ``kind``'s (``paths`` that exist), which would stay beside the new ones, mixed."""
+SWEEP_OUTPUTS = ("seeds.md", "seeds.json", "logs")
+"""What a sweep writes besides its ``seed-<s>`` folders (what ``--overwrite`` replaces)."""
+
+
+def sweep_paths(out: Path) -> list[Path]:
+    """A sweep's outputs in ``out``: :data:`SWEEP_OUTPUTS` and its ``seed-<s>`` folders."""
+    import re
+
+    named = [out / name for name in SWEEP_OUTPUTS if (out / name).exists() or (out / name).is_symlink()]
+    return named + sorted(p for p in out.glob("seed-*") if re.fullmatch(r"seed-\d+", p.name))
+
+
+def require_no_outputs_of(out: Path, kind: str, paths: Sequence[Path], instead: str) -> None:
+    """``--overwrite`` replaces a run's outputs of its own kind only: refuse an ``out`` that
+    holds ``kind``'s (``paths`` that exist), which would stay beside the new ones, mixed."""
     present = [p.name for p in paths if p.exists() or p.is_symlink()]
     if present:
         shown = ", ".join(present[:5]) + (", ..." if len(present) > 5 else "")
-        folder = paths[0].parent
         raise ValueError(
-            f"--overwrite: {folder} holds {kind}'s outputs ({shown}), which this run would leave beside its own; "
+            f"--overwrite: {out} holds {kind}'s outputs ({shown}), which this run would leave beside its own; "
             f"give {instead}, or move them away first"
         )
 

@@ -18,6 +18,7 @@ from sma_gym_agents.training.config import (
     put_back_outputs,
     require_no_outputs_of,
     set_aside_outputs,
+    sweep_paths,
 )
 
 
@@ -35,8 +36,7 @@ def train_and_compare(
     check_output_folder(out, must_be_empty=not overwrite)
     if overwrite and out.is_dir():
         # A sweep's files would stay beside this run's, and its --resume then refused the folder.
-        sweep_files = [out / name for name in ("seeds.md", "seeds.json")] + sorted(out.glob("seed-[0-9]*"))
-        require_no_outputs_of("a seed sweep", sweep_files, "a new --out (or --seeds to overwrite the sweep)")
+        require_no_outputs_of(out, "a seed sweep", sweep_paths(out), "a new --out (or --seeds to overwrite the sweep)")
     # Imported after the checks: a bad option is refused without loading stable-baselines3.
     from sma_gym_agents.training.compare import compare
     from sma_gym_agents.training.learn import train

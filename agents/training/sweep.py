@@ -44,10 +44,12 @@ from sma_gym_agents.training.config import (
     MAX_SEED,
     ROOT,
     RUN_OUTPUTS,
+    SWEEP_OUTPUTS,
     RunConfig,
     build_parser,
     parse_args,
     require_no_outputs_of,
+    sweep_paths,
 )
 
 if TYPE_CHECKING:  # compare imports the evaluation harness; the sweep needs it only at the end
@@ -56,8 +58,6 @@ if TYPE_CHECKING:  # compare imports the evaluation harness; the sweep needs it 
 BOOTSTRAP_RESAMPLES = 2_000
 BOOTSTRAP_SEED = 0
 CONFIDENCE = 0.95
-SWEEP_OUTPUTS = ("seeds.md", "seeds.json", "logs")
-"""What a sweep writes besides its ``seed-<s>`` folders (what ``--overwrite`` replaces)."""
 PREVIOUS_SWEEP_DIR = ".previous-sweep"
 """Where ``--overwrite`` keeps the earlier sweep (inside ``--out``) until a seed of the new one
 has kept a file: a sweep stopped or failing before that puts the earlier one back."""
@@ -523,17 +523,9 @@ def require_sweep_folder(out: Path) -> None:
         )
 
 
-def _sweep_paths(out: Path) -> list[Path]:
-    """A sweep's outputs in ``out``: :data:`SWEEP_OUTPUTS` and its ``seed-<s>`` folders."""
-    import re
-
-    named = [out / name for name in SWEEP_OUTPUTS if (out / name).exists() or (out / name).is_symlink()]
-    return named + sorted(p for p in out.glob("seed-*") if re.fullmatch(r"seed-\d+", p.name))
-
-
 def prepare_sweep_out(out: Path) -> None:
     """Delete a previous sweep's outputs from ``out``."""
-    for path in _sweep_paths(out):
+    for path in sweep_paths(out):
         if path.is_dir() and not path.is_symlink():
             shutil.rmtree(path)
         else:
@@ -548,7 +540,7 @@ def set_aside_sweep(out: Path) -> Path:
     if aside.exists():  # left by a sweep killed outright: older than the sweep in out
         shutil.rmtree(aside)
     aside.mkdir(parents=True)
-    for path in _sweep_paths(out):
+    for path in sweep_paths(out):
         path.rename(aside / path.name)
     return aside
 
@@ -560,7 +552,7 @@ def sweep_kept_nothing(out: Path) -> bool:
 
     return not any(
         p.is_file() and p.name != LOCK_NAME
-        for folder in _sweep_paths(out)
+        for folder in sweep_paths(out)
         if folder.name.startswith("seed-")
         for p in ([folder] if folder.is_file() else folder.rglob("*"))
     )
@@ -665,7 +657,7 @@ def sweep_main(args: argparse.Namespace, run: RunConfig) -> int:
             print(f"train.py: --resume: {out} does not exist yet; nothing to continue, the sweep starts", flush=True)
     if args.overwrite:
         # A single run's files would stay beside the sweep's, and --resume then refused the folder.
-        require_no_outputs_of("a single run", [out / name for name in RUN_OUTPUTS], "a new --out (or no --seeds)")
+        require_no_outputs_of(out, "a single run", [out / name for name in RUN_OUTPUTS], "a new --out (or no --seeds)")
     with locked_folder(out):
         previous = set_aside_sweep(out) if args.overwrite else None
         try:
