@@ -145,7 +145,10 @@ def test_no_candidates_is_the_nominal_refit_alone():
     first = result.rounds[0]
     assert first["heldout_normalised_rms"] == first["nominal_refit_heldout_normalised_rms"]
     assert first["heldout_normalised_rms"] != first["as_given_heldout_normalised_rms"]
-    assert first["gap"] == result.gap_after
+    # ... and is returned refitted on the whole file (step 9: no held-out file was given),
+    # so the round's gap, still held out, is that of the refit as the round left it.
+    assert first["candidates"][0]["parameters"] == result.whole_file_refit["parameters_selected"]
+    assert first["gap"] != result.gap_after
 
 
 def test_a_refit_that_predicts_worse_than_the_model_as_given_is_not_shipped(tmp_path, capsys):
@@ -161,6 +164,7 @@ def test_a_refit_that_predicts_worse_than_the_model_as_given_is_not_shipped(tmp_
     assert "the corrected model is the model as given" in capsys.readouterr().out
     report = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
     assert report["kept_as_given"] is True and report["verdict"] != "effect"
+    assert report["whole_file_refit"] is None  # the model as given is not refitted on the whole file either
     first = report["rounds"][0]
     assert first["nominal_refit_heldout_normalised_rms"] > first["as_given_heldout_normalised_rms"]
     assert first["heldout_normalised_rms"] == first["as_given_heldout_normalised_rms"]

@@ -104,6 +104,13 @@ def write_report(
             " (see the gap table), so no refit is kept."
             if result.kept_as_given
             else ""
+        )
+        + (
+            " Its parameters were chosen on the fitted part of each file and then refitted on the whole files"
+            ' (the effects and their forms unchanged; see "Refitted on the whole files"), so the held-out rows of'
+            " the gap table took part in its fit: the held-out evidence for the choice is the Rounds table."
+            if result.whole_file_refit
+            else ""
         ),
         "",
         "## The gap (RMS error)",
@@ -127,7 +134,7 @@ def write_report(
     ]
     if result.separating_experiment and verdict != "ambiguous":
         lines += [f"The last round was ambiguous; to tell its candidates apart: {result.separating_experiment}.", ""]
-    lines += _round_lines(result) + _file_lines(result)
+    lines += _round_lines(result) + _file_lines(result) + _whole_file_lines(result)
     lines += [
         "## Fitted parameters of the corrected model",
         "",
@@ -269,6 +276,31 @@ def _file_lines(result: Diagnosis) -> list[str]:
             lines.append(
                 f"| {label} | {name} | {format_value(gaps.get('position', math.nan), 'position')} | {format_value(after, 'position')} |"
             )
+    return lines + [""]
+
+
+def _whole_file_lines(result: Diagnosis) -> list[str]:
+    """Step 9's table: each whole file's RMS under the model as chosen on the fitted parts and
+    as refitted on the whole files."""
+    refit = result.whole_file_refit
+    if not refit:
+        return []
+    lines = [
+        "## Refitted on the whole files",
+        "",
+        "The model the rounds chose on the fitted part of each file, and the same model (effects and forms) "
+        "with its parameters refitted on every sample of every file: the corrected model. RMS over each whole file.",
+        "",
+        "| file | output | chosen on the fitted parts | refitted on the whole files |",
+        "|---|---|---|---|",
+    ]
+    for name, models in refit["rms_by_file"].items():
+        for output, chosen in models["selected"].items():
+            after = models["refitted"].get(output, math.nan)
+            lines.append(f"| {name} | {output} | {format_value(chosen, output)} | {format_value(after, output)} |")
+    lines += ["", "| parameter | chosen on the fitted parts | refitted | unit |", "|---|---|---|---|"]
+    for name, p in refit["parameters_selected"].items():
+        lines.append(f"| {name} | {p['value']:.5g} | {result.parameters[name]['value']:.5g} | {p['unit']} |")
     return lines + [""]
 
 
