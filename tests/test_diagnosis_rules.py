@@ -1651,7 +1651,9 @@ def test_without_held_out_files_the_chosen_model_is_refitted_on_the_whole_files(
     held = replace(generate(replace(spec, excitation="sine", seed=5, actuator_seed=4))[0], path="held.csv")
     judged = workflow.diagnose([trace], [held], ModelConfig(), effects=[], max_rounds=1, threads=1)
     assert judged.whole_file_refit is None and "refitted" not in judged.corrected_model.notes
-    assert "Refitted on the whole files" not in write_report(judged, tmp_path, [trace], [held], ModelConfig()).read_text()
+    assert (
+        "Refitted on the whole files" not in write_report(judged, tmp_path, [trace], [held], ModelConfig()).read_text()
+    )
 
 
 def test_an_effect_found_before_and_named_back_in_its_default_form_keeps_that_form():
