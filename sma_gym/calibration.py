@@ -210,6 +210,7 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
     from sma_gym.data import REAL_BENCH_RUNS, find_real_data_dir, load_trace
     from sma_gym.data.measured import REAL_DATA_ENV
     from sma_gym.diagnosis import diagnose
+    from sma_gym.diagnosis.workflow import HOLDOUT_FRACTION
     from sma_gym.models import twin_path
 
     where = Path(folder) if folder else find_real_data_dir()
@@ -235,6 +236,7 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
         rivals = last if isinstance(last, str) else " or ".join(last)
         found += f"; also carries {result.carried}, the best held out of the last round's ambiguous {rivals}"
     at_bounds = "; ".join(whole["parameters_at_bounds"]) or "none"
+    held = round(HOLDOUT_FRACTION * 100)
     twin = ModelConfig(
         replace(
             result.corrected_model.actuator,
@@ -247,7 +249,7 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
         result.corrected_model.effects,
         notes=(
             f"Identified by python -m sma_gym.calibration twin from bench-0.5mm-ht-datasheet on {', '.join(REAL_BENCH_RUNS)} "
-            f"(chosen on the first 70 % of each run, the last 30 % held out, then refitted on the whole runs), "
+            f"(chosen on the first {100 - held} % of each run, the last {held} % held out, then refitted on the whole runs), "
             f"{len(result.rounds)} round(s); effects found: {found}. "
             f"Position RMS over each whole run: {gap} (as chosen, before the refit: {chosen}). "
             f"Fitted parameters at a bound (findings, docs/diagnosis.md): {at_bounds}."

@@ -305,10 +305,24 @@ def _print_diagnosis(result: Any, paths: dict[str, Path], as_json: bool) -> None
     print(f"verdict: {result.verdict}" + (f" ({effect})" if effect else ""))
     from sma_gym.diagnosis.report import format_value
 
+    whole = result.whole_file_refit
     for data in ("fit", "heldout"):
         for output, before in result.gap_before[data].items():
-            after = result.gap_after[data].get(output, float("nan"))
-            print(f"  {data:8s} {output:10s} RMS {format_value(before, output)} -> {format_value(after, output)}")
+            # Refitted on the whole files, the held-out part was fitted: show the model as chosen there.
+            after = (whole["gap_selected"] if whole else result.gap_after)[data].get(output, float("nan"))
+            line = f"  {data:8s} {output:10s} RMS {format_value(before, output)} -> {format_value(after, output)}"
+            if whole:
+                refitted = result.gap_after[data].get(output, float("nan"))
+                line += f" (as chosen; refitted on the whole files: {format_value(refitted, output)})"
+            print(line)
+    if whole:
+        from sma_gym.diagnosis.workflow import HOLDOUT_FRACTION
+
+        print(
+            f"  note: the model was chosen on the first {100 - round(HOLDOUT_FRACTION * 100)} % of each file (the rest "
+            "held out) and then refitted on the whole files, which the corrected model carries; the held-out "
+            "figure in brackets was fitted"
+        )
     if result.kept_as_given:
         print(
             "  note: the nominal refit predicted the held-out data worse than the model as given, so the "

@@ -1112,6 +1112,7 @@ def test_cross_validation_never_shows_the_left_out_run_to_the_diagnosis(monkeypa
             parameters={},
             corrected_model=nominal,
             noise={"position": 1e-6},
+            whole_file_refit=None,
         )
 
     monkeypatch.setattr(workflow, "diagnose", fake_diagnose)
@@ -1618,17 +1619,18 @@ def test_the_corrected_model_runs_under_the_conditions_its_files_were_fitted_und
     assert both.conditions == {"pwm_frequency_hz": 500.0}
 
 
-def test_without_held_out_files_the_chosen_model_is_refitted_on_the_whole_files(tmp_path):
+def test_without_held_out_files_the_chosen_model_is_refitted_on_the_whole_files(tmp_path, capsys):
     """Step 9: the model chosen on the first 70 % of each file (the rest held out for the
     verdict rules) is refitted on every sample. The corrected model, its parameters and its
     gaps are the refit's; the choice's parameters and each file's RMS before and after are
     recorded; the rounds keep the held-out evidence of the choice; held-out files are never
     fitted. (The model of the real bench's fold that predicts step07 had never seen the
     other runs' last 30 %: 0.388 mm on step07, refitted 0.332 mm.)"""
+    from sma_gym.cli import _print_diagnosis
     from sma_gym.diagnosis.report import write_report
 
     spec = SynthSpec(ModelConfig(), excitation="random", duration_s=10.0, electrical=False, perturb=0.05, seed=4)
-    trace = replace(generate(spec)[0], path="run.csv")
+    trace = replace(generate(spec)[0], path="runs/run.csv")
     result = workflow.diagnose([trace], [], ModelConfig(), effects=[], max_rounds=1, threads=1)
     refit = result.whole_file_refit
     assert refit is not None and not result.kept_as_given
@@ -1642,11 +1644,24 @@ def test_without_held_out_files_the_chosen_model_is_refitted_on_the_whole_files(
     offset = final.get("position_offset_m", {}).get("value", 0.0)
     sim = fitting.simulate([result.corrected_model], [offset], whole, workflow.CONTROL_PERIOD_S)
     assert fitting.rms_by_output(sim, whole)["position"] == pytest.approx(after, rel=1e-9)
-    # The round's held-out figure is the choice's, measured before the refit saw that part.
-    assert result.rounds[-1]["gap"]["heldout"]["position"] != pytest.approx(result.gap_after["heldout"]["position"])
+    # The round's held-out figure is the choice's, measured before the refit saw that part, and
+    # so is the record's gap of the model as chosen; the gaps of the model shipped are the refit's.
+    chosen_held = refit["gap_selected"]["heldout"]["position"]
+    assert result.rounds[-1]["gap"]["heldout"]["position"] == pytest.approx(chosen_held, rel=1e-9)
+    assert chosen_held != pytest.approx(result.gap_after["heldout"]["position"])
     assert "refitted on the whole files" in result.corrected_model.notes
+    # One label per file in every table (the split file was labelled by its path in the per-file gaps).
+    assert set(result.gap_by_file["corrected"]["fit"]) == set(refit["rms_by_file"]) == {"run.csv"}
     text = write_report(result, tmp_path, [trace], [], ModelConfig()).read_text()
     assert "## Refitted on the whole files" in text and "took part in its fit" in text
+    assert "| corrected, as chosen | shrink | corrected, refitted on the whole files (held out: fitted) |" in text
+    assert "Refitted parameters at a bound:" in text
+    _print_diagnosis(result, {"report": tmp_path / "diagnosis.md", "model": tmp_path / "m.json"}, False)
+    printed = capsys.readouterr().out
+    assert "(as chosen; refitted on the whole files:" in printed and "in brackets was fitted" in printed
+    fold = {"held_out": "a", "fitted": ["b"], "verdict": "none", "effects_found": [], "carried": None}
+    fold |= {"position_rms_nominal_m": 1e-3, "position_rms_corrected_m": 1e-4, "refitted_on_whole_files": True}
+    assert "then refitted on the whole of those runs" in cross_validation_table({"folds": [fold]})
 
     held = replace(generate(replace(spec, excitation="sine", seed=5, actuator_seed=4))[0], path="held.csv")
     judged = workflow.diagnose([trace], [held], ModelConfig(), effects=[], max_rounds=1, threads=1)

@@ -334,8 +334,9 @@ class Diagnosis:
     whole_file_refit: dict[str, Any] | None = None
     """Step 9, without held-out files: ``parameters_selected`` (the model's parameters as
     chosen on the fitted part of each file; ``parameters`` holds the refitted ones, which the
-    corrected model carries), ``rms_by_file`` ({file: {"selected" | "refitted": {output:
-    RMS over the whole file}}}) and the refitted ``parameters_at_bounds``. None with held-out files or a model kept as given. The
+    corrected model carries), ``gap_selected`` (the model as chosen: fit and held out, as
+    ``gap_after``), ``rms_by_file`` ({file: {"selected" | "refitted": {output: RMS over the
+    whole file}}}), the refitted ``parameters_at_bounds`` and a ``note``. None with held-out files or a model kept as given. The
     gaps (``gap_after``, ``gap_by_file``) are the refitted model's, so their held-out part
     took part in its fit: the held-out evidence of the choice is in ``rounds``."""
 
@@ -593,7 +594,10 @@ def diagnose(
     whole_file_refit = None
     if not heldout_traces and not kept_as_given and len(chosen_fit.parameters):  # (none: nothing to refit)
         say("refitting the chosen model's parameters on the whole files")
+        chosen_model = _corrected_model(nominal, current, "", files)[0]
+        gap_selected = _gaps(chosen_model, offset, fit_data, held_data, control_period_s)
         chosen_fit, whole_file_refit = _refit_on_whole_files(nominal, fit_traces, chosen_fit, control_period_s, threads)
+        whole_file_refit["gap_selected"] = gap_selected
         current, offset = chosen_fit.model, chosen_fit.offset
     notes = f"sma-gym diagnose: verdict {verdict}" + (f" ({effect})" if effect else "") + f", {len(rounds)} round(s)"
     if kept_as_given:
@@ -606,7 +610,7 @@ def diagnose(
         notes += f"; carries {carried}, the best supported of round {len(rounds)}'s ambiguous {rivals}"
     if whole_file_refit is not None:
         notes += (
-            f"; chosen on the first {100 - int(HOLDOUT_FRACTION * 100)} % of each file, refitted on the whole files"
+            f"; chosen on the first {100 - round(HOLDOUT_FRACTION * 100)} % of each file, refitted on the whole files"
         )
     corrected, shared, differing = _corrected_model(nominal, current, notes, files)
 
@@ -670,6 +674,11 @@ def _refit_on_whole_files(
         for label, d in zip(labels, whole)
     }
     return refit, {
+        "note": (
+            "the corrected model, parameters, gap_after and gap_by_file are the model refitted on the whole files, "
+            "so their heldout part took part in its fit; gap_selected is the model as chosen on the fitted part, "
+            "whose heldout part is held out (as in rounds)"
+        ),
         "parameters_selected": selected.as_dict(),
         "rms_by_file": rms_by_file,
         "parameters_at_bounds": _at_bounds(refit),
@@ -1964,11 +1973,13 @@ def _gaps_by_file(
     """RMS per output of ``model`` on each file, fitted and held out separately."""
     out: dict[str, dict[str, dict[str, float]]] = {}
     # Two files of one name (a/run.csv, b/run.csv) were one row: the second replaced the first.
-    names = iter(file_labels([d.trace for d in (*fit_data, *held_data)]))
+    # A split file is in both parts, and is still one file (it was labelled by its path).
+    files = list({id(d.trace): d.trace for d in (*fit_data, *held_data)}.values())
+    label_of = dict(zip(map(id, files), file_labels(files)))
     for label, datasets in (("fit", fit_data), ("heldout", held_data)):
         for d in datasets:
             sim = fitting.simulate([model], [offset], d, dt)
-            out.setdefault(label, {})[next(names)] = fitting.rms_by_output(sim, d)
+            out.setdefault(label, {})[label_of[id(d.trace)]] = fitting.rms_by_output(sim, d)
     return out
 
 
@@ -2054,6 +2065,7 @@ def cross_validate(
                 "verdict": result.verdict,
                 "effects_found": result.effects_found,
                 "carried": result.carried,
+                "refitted_on_whole_files": result.whole_file_refit is not None,
                 "position_rms_nominal_m": nominal_rms.get("position", math.nan),
                 "position_rms_corrected_m": corrected_rms.get("position", math.nan),
                 "position_noise_m": data.noise.get("position", math.nan),
