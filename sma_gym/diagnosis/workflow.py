@@ -336,9 +336,10 @@ class Diagnosis:
     chosen on the fitted part of each file; ``parameters`` holds the refitted ones, which the
     corrected model carries), ``gap_selected`` (the model as chosen: fit and held out, as
     ``gap_after``), ``rms_by_file`` ({file: {"selected" | "refitted": {output: RMS over the
-    whole file}}}), the refitted ``parameters_at_bounds`` and a ``note``. None with held-out files or a model kept as given. The
-    gaps (``gap_after``, ``gap_by_file``) are the refitted model's, so their held-out part
-    took part in its fit: the held-out evidence of the choice is in ``rounds``."""
+    whole file}}}), the refitted ``parameters_at_bounds`` and a ``note``. None with held-out
+    files or a model kept as given. The gaps (``gap_after``, ``gap_by_file``) are the
+    refitted model's, so their held-out part took part in its fit: the held-out evidence of
+    the choice is ``gap_selected`` and ``rounds``."""
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -586,18 +587,17 @@ def diagnose(
             rounds[-1]["parameters_at_bounds"] = []
         current, offset = chosen_fit.model, chosen_fit.offset
     files = [*fit_traces, *heldout_traces]
-    if rounds[-1].get("removed") or any(r["swapped"] for r in rounds[-1].get("swaps", ())):
-        # The model the rounds leave (effects taken out or replaced), as chosen: before step 9,
-        # so its held-out gap is still held out.
-        chosen_model = _corrected_model(nominal, current, "", files)[0]
-        rounds[-1]["gap"] = _gaps(chosen_model, offset, fit_data, held_data, control_period_s)
+    changed = rounds[-1].get("removed") or any(r["swapped"] for r in rounds[-1].get("swaps", ()))
+    # The gap of the model as chosen, before step 9 fits its held-out part (one simulation):
+    # the last round's when the pruning or the replacement changed the model it left.
+    chosen_gap = _gaps(_corrected_model(nominal, current, "", files)[0], offset, fit_data, held_data, control_period_s)
+    if changed:
+        rounds[-1]["gap"] = chosen_gap
     whole_file_refit = None
-    if not heldout_traces and not kept_as_given and len(chosen_fit.parameters):  # (none: nothing to refit)
+    if not heldout_traces and not kept_as_given and len(chosen_fit.parameters) > 0:  # (none: nothing to refit)
         say("refitting the chosen model's parameters on the whole files")
-        chosen_model = _corrected_model(nominal, current, "", files)[0]
-        gap_selected = _gaps(chosen_model, offset, fit_data, held_data, control_period_s)
         chosen_fit, whole_file_refit = _refit_on_whole_files(nominal, fit_traces, chosen_fit, control_period_s, threads)
-        whole_file_refit["gap_selected"] = gap_selected
+        whole_file_refit["gap_selected"] = chosen_gap
         current, offset = chosen_fit.model, chosen_fit.offset
     notes = f"sma-gym diagnose: verdict {verdict}" + (f" ({effect})" if effect else "") + f", {len(rounds)} round(s)"
     if kept_as_given:
