@@ -616,7 +616,8 @@ def diagnose(
 
     say(f"verdict {verdict}; measuring the gap before and after")
     gap_before = _gaps(nominal, 0.0, fit_data, held_data, control_period_s)
-    gap_after = _gaps(corrected, offset, fit_data, held_data, control_period_s)
+    # Without step 9 the corrected model is the model as chosen, whose gap is measured already.
+    gap_after = _gaps(corrected, offset, fit_data, held_data, control_period_s) if whole_file_refit else chosen_gap
     gap_refit = _gaps(first.ref.fit.model, first.ref.fit.offset, fit_data, held_data, control_period_s)
     by_file = {
         "nominal": _gaps_by_file(nominal, 0.0, fit_data, held_data, control_period_s),
