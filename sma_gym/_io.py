@@ -484,24 +484,59 @@ def sigterm_as_interrupt() -> Iterator[None]:
     thread can take a signal; elsewhere the block runs unchanged. The previous handler is
     restored at the end.
 
-    Python drops an exception raised inside a callback from C: numba's compiler calls back
-    through ctypes while it loads a cached kernel, and a SIGTERM that lands there was lost,
-    the run going on to its end (measured: one run in six stopped 1 s into a diagnosis).
-    Such a lost :class:`Terminated` reaches ``sys.unraisablehook``, which sends the signal
-    again a moment later, by then outside the callback."""
+    A stop that lands inside a library leaves debris, handled here so that every command
+    ends on its one line ("terminated", "interrupted") and the shell's code:
+
+    * Python drops an exception raised inside a callback from C: numba's compiler calls
+      back through ctypes while it compiles or loads a kernel, and a SIGTERM that lands
+      there was lost, the run going on to its end (measured: one run in six stopped 1 s
+      into a diagnosis). Such a lost :class:`Terminated` reaches ``sys.unraisablehook``,
+      which sends the signal again a moment later, by then outside the callback.
+    * The block may end before that: the stop is then raised at its end. Or the library
+      fails before that, because its callback never finished (numba: "no compiled object
+      yet", a traceback and exit 1 in one of 80 stops with a cold cache): any error that
+      leaves the block after a stop was lost is that stop, and leaves as
+      :class:`Terminated`; so does an error raised while handling a stop (a library that
+      catches the interrupt and raises its own error).
+    * An object half-built when the stop landed fails in its ``__del__`` (llvmlite's
+      ``PipelineTuningOptions``: "no attribute '_as_parameter_'", printed after the
+      command's last line, in CI). When a stop leaves the block, the frames it unwound are
+      cleared, releasing such objects there, and what their ``__del__`` raises is not
+      printed: it is the stop's debris, not a finding."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
+    state = {"raised": 0, "lost": 0, "stopping": False, "resend": True}
+
     def handler(signum: int, frame: Any) -> None:
-        raise Terminated(f"signal {signum}")
+        if not state["stopping"]:  # a second SIGTERM does not cut short the first's cleanup
+            state["raised"] += 1
+            raise Terminated(f"signal {signum}")
 
     previous_hook = sys.unraisablehook
+    resend_lock = threading.Lock()  # a resend never lands after the handler is restored
+    timers: list[threading.Timer] = []
+
+    def send_again() -> None:
+        with resend_lock:
+            if state["resend"]:
+                os.kill(os.getpid(), signal.SIGTERM)
+
+    def no_more_resends() -> None:
+        with resend_lock:
+            state["resend"] = False
+        for timer in timers:
+            timer.cancel()
 
     def hook(unraisable: Any) -> None:
+        if state["stopping"]:
+            return
         if isinstance(unraisable.exc_value, Terminated):
-            again = threading.Timer(0.05, os.kill, (os.getpid(), signal.SIGTERM))
+            state["lost"] += 1
+            again = threading.Timer(0.05, send_again)
             again.daemon = True
+            timers.append(again)
             again.start()
             return
         previous_hook(unraisable)
@@ -510,6 +545,50 @@ def sigterm_as_interrupt() -> Iterator[None]:
     sys.unraisablehook = hook
     try:
         yield
+    except BaseException as err:
+        stop = interrupt_behind(err)
+        if stop is None and state["lost"]:
+            stop = Terminated(f"signal {signal.SIGTERM}")
+        if stop is None:
+            raise
+        state["stopping"] = True
+        no_more_resends()
+        _release_frames(err)
+        if stop is err:
+            raise
+        if stop is interrupt_behind(err):
+            raise stop from None  # the library's error, raised while handling the stop: the stop again
+        raise stop from err  # the stop lost in a callback, for the error it caused
+    else:
+        if state["lost"] and state["raised"] == state["lost"]:  # the block ended before the resend
+            state["stopping"] = True
+            raise Terminated(f"signal {signal.SIGTERM}")
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        no_more_resends()
         sys.unraisablehook = previous_hook
+        try:
+            signal.signal(signal.SIGTERM, previous)
+        except Terminated:
+            # signal.signal first runs the handler of a SIGTERM still pending (a second one,
+            # or one sent again): restore anyway; a stop already leaving is enough.
+            signal.signal(signal.SIGTERM, previous)
+            if not state["stopping"]:
+                raise
+
+
+def _release_frames(err: BaseException) -> None:
+    """Clear the finished frames ``err`` and the errors chained to it unwound, and collect
+    what only they held (a stop's half-built objects: see :func:`sigterm_as_interrupt`)."""
+    import gc
+    import traceback
+
+    seen: set[int] = set()
+    pending: list[BaseException | None] = [err]
+    while pending:
+        exc = pending.pop()
+        if exc is None or id(exc) in seen:
+            continue
+        seen.add(id(exc))
+        traceback.clear_frames(exc.__traceback__)  # frames still running are skipped
+        pending += [exc.__cause__, exc.__context__]
+    gc.collect()

@@ -615,6 +615,96 @@ def test_a_sigterm_that_lands_inside_a_callback_from_c_is_sent_again():
     assert (signal.getsignal(signal.SIGTERM), sys.unraisablehook) == before
 
 
+def test_an_object_half_built_when_sigterm_lands_is_released_without_noise():
+    """CI, a cold numba cache: SIGTERM landed inside llvmlite's ``PipelineTuningOptions()``
+    before its pointer was set; its ``__del__`` then failed ("no attribute
+    '_as_parameter_'") and Python printed that traceback after "sma-gym diagnose:
+    terminated". The stop's frames are now released inside the block, their debris unprinted."""
+    import gc
+    import signal
+    import time
+
+    from sma_gym._io import Terminated, sigterm_as_interrupt
+
+    class HalfBuilt:
+        def __init__(self) -> None:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(1)  # the handler raises here, before the handle is set
+            self.handle = 1
+
+        def __del__(self) -> None:
+            del self.handle  # as llvmlite's ObjectRef.detach: AttributeError when half-built
+
+    printed: list = []
+    hook = sys.unraisablehook
+    sys.unraisablehook = printed.append
+    try:
+        with pytest.raises(Terminated) as stop, sigterm_as_interrupt():
+            HalfBuilt()
+        del stop
+        gc.collect()
+    finally:
+        sys.unraisablehook = hook
+    assert printed == []
+
+
+def test_an_error_a_lost_sigterm_causes_leaves_as_the_stop_and_nothing_is_sent_after():
+    """A SIGTERM lost in numba's callback left its compiler half done, and it raised
+    "RuntimeError: no compiled object yet" (a traceback, exit 1) before the signal could be
+    sent again. An error that leaves the block after a lost stop is that stop; the resend
+    still pending is cancelled, not delivered to whatever handler comes after the block."""
+    import ctypes
+    import signal
+    import time
+
+    from sma_gym._io import Terminated, sigterm_as_interrupt
+
+    @ctypes.CFUNCTYPE(None)
+    def from_c() -> None:
+        signal.raise_signal(signal.SIGTERM)  # to this thread: the handler runs here, its exception dropped
+
+    after: list[int] = []
+    before = signal.signal(signal.SIGTERM, lambda signum, frame: after.append(signum))
+    try:
+        with pytest.raises(Terminated) as stop, sigterm_as_interrupt():
+            from_c()
+            raise RuntimeError("no compiled object yet")  # at once, before the resend
+        assert isinstance(stop.value.__cause__, RuntimeError)
+        time.sleep(0.3)
+        assert after == []
+    finally:
+        signal.signal(signal.SIGTERM, before)
+
+
+def test_a_sigterm_lost_in_a_callback_at_the_end_of_the_block_still_stops():
+    import ctypes
+    import signal
+
+    from sma_gym._io import Terminated, sigterm_as_interrupt
+
+    @ctypes.CFUNCTYPE(None)
+    def from_c() -> None:
+        signal.raise_signal(signal.SIGTERM)  # the handler's exception is dropped here
+
+    with pytest.raises(Terminated), sigterm_as_interrupt():
+        from_c()  # and the block ends before the signal is sent again
+
+
+@pytest.mark.parametrize("error", [RuntimeError, AttributeError, ValueError])
+def test_any_error_raised_while_handling_a_stop_leaves_as_the_stop(error):
+    import signal
+
+    from sma_gym._io import Terminated, sigterm_as_interrupt
+
+    with pytest.raises(Terminated), sigterm_as_interrupt():
+        try:
+            signal.raise_signal(signal.SIGTERM)
+        except Terminated as err:
+            raise error("a library's own error for the stop") from err
+    with pytest.raises(error), sigterm_as_interrupt():
+        raise error("no stop behind it")
+
+
 def test_a_closed_stdout_ends_a_command_without_a_traceback(tmp_path, capsys, monkeypatch):
     """``sma-gym diagnose ... | head`` printed a BrokenPipeError traceback once ``head`` had
     read its lines; now the shell's code for SIGPIPE and nothing on stderr."""
