@@ -153,9 +153,17 @@ def write_report(
     if result.separating_experiment and verdict != "ambiguous":
         lines += [f"The last round was ambiguous; to tell its candidates apart: {result.separating_experiment}.", ""]
     lines += _round_lines(result) + _file_lines(result) + _whole_file_lines(result)
-    lines += [
-        "## Fitted parameters of the corrected model",
-        "",
+    lines += (
+        [
+            "## Parameters of the corrected model",
+            "",
+            "None was fitted: the corrected model is the nominal model as given, each fitted parameter at its"
+            " nominal value (a scale of 1, a shift of 0), with no uncertainty.",
+            "",
+        ]
+        if result.kept_as_given
+        else ["## Fitted parameters of the corrected model", ""]
+    ) + [
         "| parameter | value | uncertainty (1 sigma) | unit |",
         "|---|---|---|---|",
     ]
