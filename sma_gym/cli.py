@@ -287,7 +287,10 @@ def _cross_validate(
         with staged_outputs(out, "diagnose-cross-validate") as staging:
             write_json(staging / CROSS_VALIDATION_OUTPUTS[0], {**cv, "provenance": provenance()})
             write_text(staging / CROSS_VALIDATION_OUTPUTS[1], "# Leave one run out\n\n" + table)
-    print(json.dumps(cv) if args.json else table, end="" if not args.json else "\n")
+    if args.json:  # the object the file holds, provenance included, on one line
+        print(json.dumps(json.loads((out / CROSS_VALIDATION_OUTPUTS[0]).read_text(encoding="utf-8"))))
+    else:
+        print(table, end="")
     return 0
 
 
@@ -296,9 +299,9 @@ def _print_diagnosis(result: Any, paths: dict[str, Path], as_json: bool) -> None
     import json
 
     if as_json:
-        from sma_gym.diagnosis.report import json_default
-
-        print(json.dumps(result.as_dict(), default=json_default))
+        # diagnosis.json's object on one line: the result with its provenance and the files
+        # written (the result alone left out which code produced it and where it went).
+        print(json.dumps(json.loads(paths["json"].read_text(encoding="utf-8"))))
         return
     joiner = " + " if result.verdict == "effects" else " or "
     effect = result.effect if isinstance(result.effect, str) or result.effect is None else joiner.join(result.effect)
@@ -381,7 +384,11 @@ def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
         help="leave one run out: diagnose on all files but one and predict that one, for every file; "
         "writes cross_validation.md/.json",
     )
-    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print diagnosis.json's (or cross_validation.json's) object on one line instead of the summary",
+    )
     p.add_argument(
         "--overwrite",
         action="store_true",

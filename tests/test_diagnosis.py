@@ -247,6 +247,7 @@ def test_cli_writes_report_model_and_json_and_the_env_runs_on_the_correction(tmp
     assert (out / "diagnosis.md").read_text().startswith("# Diagnosis")
     written = json.loads((out / "diagnosis.json").read_text())
     assert written["verdict"] == "effect" and written["provenance"]["sma_gym_version"]  # the code beside the verdict
+    assert result == written  # --json printed the file's object: provenance and outputs too
     assert len(list(out.glob("*.png"))) >= 3
     # The corrected model loads and an env runs on it.
     model = load_model(str(out / "corrected_model.json"))
@@ -390,6 +391,7 @@ def test_cross_validation_predicts_every_run_from_the_others(tmp_path, capsys):
     ]
     assert main([*args, "--out", str(tmp_path / "cv"), "--json"]) == 0
     cv = json.loads(capsys.readouterr().out)
+    assert cv == json.loads((tmp_path / "cv" / "cross_validation.json").read_text())  # with its provenance
     assert [f["held_out"] for f in cv["folds"]] == ["run0.csv", "run1.csv", "run2.csv"]
     for fold in cv["folds"]:
         assert fold["held_out"] not in fold["fitted"] and len(fold["fitted"]) == 2
