@@ -1627,7 +1627,7 @@ def test_without_held_out_files_the_chosen_model_is_refitted_on_the_whole_files(
     fitted. (The model of the real bench's fold that predicts step07 had never seen the
     other runs' last 30 %: 0.388 mm on step07, refitted 0.332 mm.)"""
     from sma_gym.cli import _print_diagnosis
-    from sma_gym.diagnosis.report import write_report
+    from sma_gym.diagnosis.report import staircase_stages, write_report
 
     spec = SynthSpec(ModelConfig(), excitation="random", duration_s=10.0, electrical=False, perturb=0.05, seed=4)
     trace = replace(generate(spec)[0], path="runs/run.csv")
@@ -1656,6 +1656,9 @@ def test_without_held_out_files_the_chosen_model_is_refitted_on_the_whole_files(
     assert "## Refitted on the whole files" in text and "took part in its fit" in text
     assert "| corrected, as chosen | shrink | corrected, refitted on the whole files (held out: fitted) |" in text
     assert "Refitted parameters at a bound:" in text
+    # The staircase ends on the refitted model, its fitted part only (its held-out part was fitted).
+    label, gap = staircase_stages(result)[-1]
+    assert label.startswith("refitted on") and set(gap) == {"fit"} and gap["fit"] == result.gap_after["fit"]
     _print_diagnosis(result, {"report": tmp_path / "diagnosis.md", "model": tmp_path / "m.json"}, False)
     printed = capsys.readouterr().out
     assert "(as chosen; refitted on the whole files:" in printed and "in brackets was fitted" in printed
@@ -1666,6 +1669,7 @@ def test_without_held_out_files_the_chosen_model_is_refitted_on_the_whole_files(
     held = replace(generate(replace(spec, excitation="sine", seed=5, actuator_seed=4))[0], path="held.csv")
     judged = workflow.diagnose([trace], [held], ModelConfig(), effects=[], max_rounds=1, threads=1)
     assert judged.whole_file_refit is None and "refitted" not in judged.corrected_model.notes
+    assert staircase_stages(judged)[-1][1] is judged.rounds[-1]["gap"]
     assert (
         "Refitted on the whole files" not in write_report(judged, tmp_path, [trace], [held], ModelConfig()).read_text()
     )

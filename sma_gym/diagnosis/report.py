@@ -26,6 +26,7 @@ from sma_gym.diagnosis.workflow import (
     SEPARATION_T,
     Diagnosis,
     file_labels,
+    holdout_cut_s,
 )
 from sma_gym.model import ModelConfig
 from sma_gym.plotting import new_figure, save
@@ -56,7 +57,9 @@ def write_report(
     for label, traces in (("fit", fit_traces), ("heldout", heldout_traces)):
         for k, trace in enumerate(traces):
             path = _trace_plot_path(out, label, k, trace)
-            plots.append(_plot_trace(trace, next(names), nominal, result, path, label))
+            # Without held-out files each fitted file's end was held out while the rounds chose.
+            cut_s = holdout_cut_s(trace) if label == "fit" and not heldout_traces else None
+            plots.append(_plot_trace(trace, next(names), nominal, result, path, label, cut_s))
     plots.append(_plot_regimes(result, out / "residuals_by_regime.png"))
     if result.rounds:
         plots.append(_plot_rounds(result, out / "gap_by_round.png"))
@@ -348,12 +351,22 @@ def _round_label(result: Diagnosis, entry: dict[str, Any]) -> str:
     return f"round {entry['round']}\n{added}"
 
 
+def staircase_stages(result: Diagnosis) -> list[tuple[str, dict[str, dict[str, float]]]]:
+    """The staircase's stages, each a label and its gap (``{"fit"|"heldout": {output: RMS}}``):
+    the model as given, its refit, each round, and the model refitted on the whole files
+    (step 9) with its fitted part only, since its held-out part took part in its fit."""
+    stages = [("nominal\nas given", result.gap_before), ("nominal\nrefit", result.gap_nominal_refit)]
+    stages += [(_round_label(result, r), r["gap"]) for r in result.rounds]
+    if result.whole_file_refit:
+        stages.append(("refitted on\nthe whole files\n(nothing held out)", {"fit": result.gap_after["fit"]}))
+    return stages
+
+
 def _plot_rounds(result: Diagnosis, path: Path) -> Path:
     """The staircase: position RMS of the model as given, its refit, and after each round,
     on the fitted and the held-out data, against twice the noise (log scale: the gap
     shrinks by orders of magnitude towards the noise)."""
-    stages = [("nominal\nas given", result.gap_before), ("nominal\nrefit", result.gap_nominal_refit)]
-    stages += [(_round_label(result, r), r["gap"]) for r in result.rounds]
+    stages = staircase_stages(result)
     fig, axes = new_figure(1, 1, size=(max(7.0, 1.9 * len(stages)), 4.5))
     ax = axes[0, 0]
     edges = np.arange(len(stages) + 1)
@@ -390,11 +403,20 @@ def _plot_rounds(result: Diagnosis, path: Path) -> Path:
 
 
 def _plot_trace(
-    trace: MeasuredTrace, name_shown: str, nominal: ModelConfig, result: Diagnosis, path: Path, label: str
+    trace: MeasuredTrace,
+    name_shown: str,
+    nominal: ModelConfig,
+    result: Diagnosis,
+    path: Path,
+    label: str,
+    cut_s: float | None = None,
 ) -> Path:
+    """Measured against the nominal and the corrected model, and the position residuals;
+    ``cut_s``: where the file's held-out part began while the rounds chose (marked)."""
     data = fitting.prepare(trace, CONTROL_PERIOD_S)
     sims = fitting.simulate([nominal, result.corrected_model], [0.0, 0.0], data, CONTROL_PERIOD_S)
     outputs = list(data.outputs)[:2]
+    corrected = "corrected (refitted on the whole files)" if result.whole_file_refit else "corrected"
     fig, axes = new_figure(len(outputs) + 1, 1, size=(11, 3.0 * (len(outputs) + 1)))
     t = trace.t
     for k, name in enumerate(outputs):
@@ -402,13 +424,20 @@ def _plot_trace(
         ax = axes[k, 0]
         ax.plot(t, data.outputs[name] * scale, "k", lw=1.0, label="measured")
         ax.plot(t, sims[name][:, 0] * scale, "C0", lw=1.0, label="nominal")
-        ax.plot(t, sims[name][:, 1] * scale, "C3", lw=1.0, label="corrected")
+        ax.plot(t, sims[name][:, 1] * scale, "C3", lw=1.0, label=corrected)
         ax.set(ylabel=f"{name} [{unit}]", title=f"{name_shown} ({label})" if k == 0 else "")
         ax.legend(fontsize=8)
+    for k in range(len(outputs) + 1) if cut_s is not None else ():
+        ax = axes[k, 0]
+        ax.axvline(cut_s, color="0.4", lw=0.8, ls=":")
+        if k == 0:
+            ax.annotate("held out while choosing \u2192", (cut_s, 0.02), xycoords=("data", "axes fraction"), fontsize=7)
     ax = axes[len(outputs), 0]
     scale, unit = _SCALE["position"]
     ax.plot(t, (data.outputs["position"] - sims["position"][:, 0]) * scale, "C0", lw=0.8, label="measured - nominal")
-    ax.plot(t, (data.outputs["position"] - sims["position"][:, 1]) * scale, "C3", lw=0.8, label="measured - corrected")
+    ax.plot(
+        t, (data.outputs["position"] - sims["position"][:, 1]) * scale, "C3", lw=0.8, label=f"measured - {corrected}"
+    )
     ax.set(xlabel="time [s]", ylabel=f"position residual [{unit}]")
     ax.legend(fontsize=8)
     return save(fig, path)

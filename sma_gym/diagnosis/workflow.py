@@ -375,9 +375,14 @@ def require_max_rounds(name: str, value: object) -> int:
     return value
 
 
+def holdout_cut_s(trace: MeasuredTrace) -> float:
+    """Where a fitted file's held-out part starts when no held-out file is given [s]: its
+    last ``HOLDOUT_FRACTION`` of the time is held out."""
+    return float(trace.t[0] + (1.0 - HOLDOUT_FRACTION) * (trace.t[-1] - trace.t[0]))
+
+
 def _split(trace: MeasuredTrace) -> tuple[np.ndarray, np.ndarray]:
-    cut = trace.t[0] + (1.0 - HOLDOUT_FRACTION) * (trace.t[-1] - trace.t[0])
-    fit_mask = trace.t < cut
+    fit_mask = trace.t < holdout_cut_s(trace)
     return fit_mask, ~fit_mask
 
 
