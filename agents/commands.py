@@ -50,7 +50,10 @@ def _fidelity_arguments(p: argparse.ArgumentParser) -> None:
         "--json", action="store_true", help='print {"rows": [...], "summary": {...}} as JSON instead of a table'
     )
     p.add_argument(
-        "--quick", action="store_true", help="one seed, shorter sines and sweeps (about 1.5 minutes, for smoke tests)"
+        "--quick",
+        action="store_true",
+        help="one seed, shorter sines and sweeps (about 1.5 minutes, for smoke tests: its counts differ from a "
+        "full run's by a row or two)",
     )
 
 

@@ -397,10 +397,17 @@ def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _synth_arguments(p: argparse.ArgumentParser) -> None:
+    from sma_gym.diagnosis.synth import EXCITATIONS
+
     p.add_argument("--out", required=True, help="CSV file to write (with <out>.json sidecar and <stem>.labels.json)")
     p.add_argument("--effect", default="none", help="none, or NAME or NAME:param=value,... (default none)")
     p.add_argument("--form", default="default", help="form of the effect (default, or an alternative such as uniform)")
-    p.add_argument("--excitation", default="steps", choices=("steps", "ramps", "sine", "chirp", "random"))
+    p.add_argument(
+        "--excitation",
+        default="steps",
+        choices=EXCITATIONS,
+        help="the reference the recording controller follows (default steps)",
+    )
     p.add_argument("--duration", type=float, default=60.0, help="seconds (default 60)")
     p.add_argument(
         "--model",
@@ -522,7 +529,8 @@ def build_parser(commands: Sequence[Command] | None = None) -> argparse.Argument
     parser.add_argument("--version", action="version", version=f"sma-gym {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     for command in all_commands() if commands is None else commands:
-        help_text, description = command.help, command.description
+        # Each command's --help says what it does (bench, warmup and evaluate showed no line).
+        help_text, description = command.help, command.description or command.help
         absent = missing(*command.needs)
         if absent and command.available:
             # Listed with what to install, so --help tells the truth for any set of extras.

@@ -780,7 +780,7 @@ class ActuatorParams:
         10.92 (beyond its 9.5 mm cut; the simulator holds 10.45 mm at 135 degC); a 0.25 mm,
         0.2 m wire at 12 V on a 600 N/m spring 7.55 of its 8.0 mm (held: at most 7.4 mm, at
         194 degC); the real bench of ``../shared/data/real`` (twin ``bench-0.5mm-ht``)
-        17.08 of 17.88 mm, where its runs reach 16.6-16.8 mm. Hotter, the wire expands and
+        17.16 of 17.96 mm, where its runs reach 16.6-16.8 mm. Hotter, the wire expands and
         holds less (6.8 mm at duty 1, 476 degC).
         """
         w, m = self.wire, self.mechanism

@@ -643,6 +643,23 @@ def test_the_loaded_reach_is_where_the_simulated_wire_goes_and_no_duty_goes_furt
         assert p.usable_stroke_m == p.loaded_reach_m
 
 
+def test_the_twins_stroke_quoted_in_the_docstrings_is_the_twins():
+    """Every env's docstring (its "Rewards") and ``loaded_reach_m``'s quote the bench twin's
+    reach and eps0 l0; re-deriving the twin moved both (17.08 of 17.88 mm became 17.16 of
+    17.96) and the text stayed behind (found by a new user). Rewards are scaled by it."""
+    import re
+
+    from sma_gym.envs.docs import REWARD
+    from sma_gym.model import load_model
+    from sma_gym.params import ActuatorParams
+
+    twin = load_model("bench-0.5mm-ht").actuator
+    expected = f"{twin.usable_stroke_m * 1e3:.2f} of {twin.wire.max_stroke_m * 1e3:.2f} mm"
+    for text in (REWARD, ActuatorParams.loaded_reach_m.__doc__, make("SMATracking-v0").unwrapped.__doc__):
+        quoted = re.findall(r"(\d+\.\d+) of (\d+\.\d+) mm(?:,| on the bench twin)", " ".join(text.split()))
+        assert quoted and f"{quoted[-1][0]} of {quoted[-1][1]} mm" == expected, (quoted, expected)
+
+
 def test_a_wire_shorter_than_the_cut_scales_and_draws_within_its_own_stroke():
     """A 0.15 m wire contracts at most its loaded reach, 5.8 mm (eps0 l0 = 6 mm), short of the
     standard cut's 9.5 mm: the usable stroke is the shorter of the two (it was the cut's), so every drawn reference

@@ -1086,9 +1086,15 @@ def test_diagnose_refuses_unusable_data_before_it_creates_out(tmp_path, capsys):
     )
     cold = tmp_path / "cold.csv"  # never heated: the position is sensor noise only
     cold.write_text("t,duty,position\n" + "".join(f"{k * 1e-3!r},0.0,{(k % 7) * 1e-6!r}\n" for k in range(3000)))
+    late = tmp_path / "late.csv"  # rests, then heats in its last 20 %: the part fitted never heats
+    late.write_text(
+        "t,duty,position\n"
+        + "".join(f"{k * 1e-2!r},{0.2 if k >= 80 else 0.0},{max(k - 80, 0) * 1e-5!r}\n" for k in range(100))
+    )
     out = tmp_path / "d"
     cases = [
         ([str(short)], "short.csv: 0.99 ms of data, expected at least 20 control steps"),
+        ([str(late)], "late.csv (t < 0.693 s): duty = 0 in every row of the first 70 % of each file"),
         ([str(dead)], "no measured output varies"),
         ([str(cold)], "cold.csv: duty = 0 in every row; expected a trace in which the wire is heated"),
         ([str(good), str(good)], "already given"),
@@ -1101,8 +1107,13 @@ def test_diagnose_refuses_unusable_data_before_it_creates_out(tmp_path, capsys):
     assert main(["diagnose", str(good), "--out", ""]) == 2
     assert "--out '': empty, expected a folder" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
-        ["cold.csv", "dead.csv", "s.csv", "s.csv.json", "s.labels.json", "short.csv"]
+        ["cold.csv", "dead.csv", "late.csv", "s.csv", "s.csv.json", "s.labels.json", "short.csv"]
     )
+    # With a held-out file the whole of it is fitted, heating included.
+    from sma_gym.data import load_trace
+    from sma_gym.diagnosis.workflow import require_diagnosable
+
+    require_diagnosable([load_trace(late)], [load_trace(good)])
 
 
 def test_a_sidecar_model_is_the_nominal_model_or_refused(tmp_path, capsys, monkeypatch):

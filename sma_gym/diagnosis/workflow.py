@@ -1783,6 +1783,21 @@ def require_diagnosable(
             f"{names}: duty = 0 in every row; expected a trace in which the wire is heated at some point "
             "(the diagnosis compares the model's response to the measured one)"
         )
+    if fit_traces and not heldout_traces and all(_unheated_until_cut(t) for t in fit_traces):
+        # Without held-out files the rounds fit each file's start only (_split): a run that
+        # rests and heats late left them nothing but noise, and came back "unexplained" with
+        # a corrected model (found by a new user).
+        cuts = ", ".join(f"{t.path} (t < {holdout_cut_s(t):.6g} s)" for t in fit_traces)
+        raise ValueError(
+            f"{cuts}: duty = 0 in every row of the first {100 - round(HOLDOUT_FRACTION * 100)} % of each file, "
+            f"the part fitted when no --heldout file is given (the last {round(HOLDOUT_FRACTION * 100)} % is held "
+            "out); expected the wire heated in it: give a --heldout file, or trim the rest before the heating"
+        )
+
+
+def _unheated_until_cut(trace: MeasuredTrace) -> bool:
+    duty = np.asarray(trace.duty, dtype=float)[np.asarray(trace.t) < holdout_cut_s(trace)]
+    return not duty.size or float(np.max(duty)) <= 0.0
 
 
 def _varies(values: np.ndarray) -> bool:

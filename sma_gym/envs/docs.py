@@ -68,7 +68,7 @@ REWARD = """
     energy term reaches up to 1.21 `energy_weight` on the presets); `stroke` is the usable
     stroke (`ActuatorParams.usable_stroke_m`: the shorter of the driver's end-of-travel
     position and the loaded wire's reach, which is below eps0 l0 because the spring stretches
-    the austenite and the hot wire expands: 17.08 of 17.88 mm on the bench twin). The reward uses the true
+    the austenite and the hot wire expands: 17.16 of 17.96 mm on the bench twin). The reward uses the true
     position, whatever the agent sees.
     """
 
