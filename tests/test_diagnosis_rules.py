@@ -1198,6 +1198,7 @@ def test_the_staircase_shows_the_model_as_given_its_refit_and_what_each_round_di
         rounds=rounds,
         noise={"position": 1.4e-5},
         carried="latent_heat",
+        whole_file_refit=None,  # held-out files given: nothing refitted on the whole files
     )
     drawn = []
     original = matplotlib.axes.Axes.stairs
@@ -1215,6 +1216,12 @@ def test_the_staircase_shows_the_model_as_given_its_refit_and_what_each_round_di
     # A pruned effect shows on the step of the round whose record holds it.
     pruned = {**rounds[0], "removed": [{"effect": "latent_heat"}]}
     assert report._round_label(result, pruned) == "round 1\n+ transformation_spread\n- latent_heat"
+    # Refitted on the whole files (step 9): one more step, its fitted part only.
+    drawn.clear()
+    refitted = SimpleNamespace(**{**vars(result), "whole_file_refit": {"note": ""}, "gap_after": gap(0.25, 0.1)})
+    report._plot_rounds(refitted, tmp_path / "gap_by_round.png")
+    assert [list(np.round(v, 6)) for v, _ in drawn][0] == [2.6, 1.5, 0.5, 0.3, 0.25]
+    assert np.isnan(drawn[1][0][-1]) and list(np.round(drawn[1][0][:-1], 6)) == [3.0, 0.8, 0.4, 0.2]
 
 
 def test_a_later_ambiguous_round_corrects_the_model_with_its_best_without_naming_it(monkeypatch):
