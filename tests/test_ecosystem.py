@@ -418,6 +418,36 @@ def test_an_env_made_with_a_model_config_is_made_again_from_its_json_spec():
     assert gym.make(EnvSpec.from_json(env.spec.to_json())).unwrapped.settings.model.actuator == params
 
 
+@pytest.mark.parametrize("env_id", ["SMATracking-v0", "SMARobust-v0", "SMAMultiplexed-v0"])
+def test_the_native_vector_env_answers_call_get_attr_and_set_attr_as_the_sync_env(env_id):
+    """Code written against Gymnasium's sync env (``v.call("reference_description")``) failed
+    with an AttributeError on the native one (found by a new user)."""
+    native = gym.make_vec(f"sma_gym:{env_id}", num_envs=3, vectorization_mode="vector_entry_point")
+    sync = gym.make_vec(f"sma_gym:{env_id}", num_envs=3, vectorization_mode="sync")
+    native.reset(seed=5)
+    sync.reset(seed=5)
+    assert native.call("reference_description") == sync.call("reference_description")
+    for name in ("position_scale_m", "resistance_scale_ohm", "control_period_s"):
+        mine, theirs = native.get_attr(name), sync.get_attr(name)
+        assert len(mine) == 3 and np.allclose(np.asarray(mine, float), np.asarray(theirs, float)), name
+        assert native.call(name) == mine
+    native.set_attr("max_episode_steps", 7)
+    native.set_attr("max_episode_steps", [9, 9, 9])
+    assert native.get_attr("max_episode_steps") == (9, 9, 9) and native.spec.max_episode_steps == 9
+    refused = [
+        (("max_episode_steps", [9, 8, 9]), "the values differ between sub-envs"),
+        (("max_episode_steps", [9, 9]), "2 values for 3 sub-envs"),
+        (("control_period_s", 0.001), "fixed when the env is made"),
+        (("position_scale_m", 0.01), "one value per sub-env"),
+    ]
+    for args, message in refused:
+        with pytest.raises(ValueError, match=message):
+            native.set_attr(*args)
+    with pytest.raises(ValueError, match=r"call\('reset'\): the native vector env runs its sub-envs as one batch"):
+        native.call("reset")
+    assert native.get_attr("max_episode_steps") == (9, 9, 9)
+
+
 def test_sb3_get_attr_gives_each_sub_env_its_own_value():
     venv = SB3VecEnv(native("SMARobust-v0", n=3))
     venv.seed(0)

@@ -40,7 +40,7 @@ from sma_gym.envs.single import (
     with_settings,
 )
 from sma_gym.envs.task import UnstartedEnvs
-from sma_gym.envs.vector import BUILT_FROM, EpisodeLimit, reset_arguments
+from sma_gym.envs.vector import BUILT_FROM, EpisodeLimit, SubEnvAccess, reset_arguments
 from sma_gym.simulator import Simulator
 
 DEFAULT_N_ACTUATORS = 4
@@ -280,7 +280,7 @@ class SMAMultiplexedEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
 spell_out_settings(SMAMultiplexedEnv.__init__, _SETTINGS)
 
 
-class SMAMultiplexedVectorEnv(MadeWith, EpisodeLimit, VectorEnv):
+class SMAMultiplexedVectorEnv(MadeWith, EpisodeLimit, SubEnvAccess, VectorEnv):
     __doc__ = docs.env_doc(
         "``num_envs`` multiplexed banks simulated as one batch (the native vector env of ``SMAMultiplexed-v0``).",
         Description="""
@@ -293,7 +293,9 @@ class SMAMultiplexedVectorEnv(MadeWith, EpisodeLimit, VectorEnv):
             single env. Besides the Gymnasium API: the single env's constants (`n`, `scheme`,
             `multiplexer`, `duty_range`, `feature_names`, `control_period_s`,
             `duty_for()`, `action_for()`), `position_scale_m` and `resistance_scale_ohm`
-            (one per bank) and `reference_description()`.
+            (one per bank) and `reference_description()`; `get_attr`, `set_attr` and `call`
+            answer as `SyncVectorEnv`'s, one entry per bank (an attribute set is shared by
+            every bank).
             """,
         Action_Space="`Box(-1, 1, (num_envs, n), float32)`: row b is bank b's action (the single env's).",
         Observation_Space="`Box(low, high, (num_envs, n * 10), float32)`: row b is bank b's observation.",

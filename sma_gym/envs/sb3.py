@@ -202,24 +202,17 @@ class SB3VecEnv(VecEnv):
         self.venv.close()
 
     def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
-        """Entry k is the value of sub-env ``indices[k]`` (its own one for per-sub-env attributes)."""
-        env = self.venv.unwrapped
-        value = getattr(env, attr_name)
-        chosen = self._indices(indices)
-        if attr_name in getattr(env, "PER_ENV", ()):
-            return [value[i] for i in chosen]
-        return [value] * len(chosen)
+        """Entry k is the value of sub-env ``indices[k]`` (its own one for per-sub-env
+        attributes: the vector env's ``get_attr``)."""
+        values = self.venv.unwrapped.get_attr(attr_name)
+        return [values[i] for i in self._indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
-        """Set an attribute of the shared env: only for all sub-envs, never one the simulator was built from."""
-        env = self.venv.unwrapped
-        if attr_name in getattr(env, "FIXED_AT_MAKE", ()):
-            raise ValueError(
-                f"set_attr({attr_name!r}): fixed when the env is made (the simulator was built with it); "
-                f"make a new env with {attr_name}=... instead"
-            )
+        """Set an attribute of the shared env: only for all sub-envs, never one the simulator
+        was built from (the vector env's ``set_attr`` refuses it)."""
         self._require_all(self._indices(indices), f"set_attr({attr_name!r})")
-        setattr(env, attr_name, value)
+        env = self.venv.unwrapped
+        env.set_attr(attr_name, [value] * env.num_envs)  # one per sub-env: a list value stays one value
 
     def env_method(self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any) -> list[Any]:
         """Call a method of the shared env; ``reset`` may address a subset of sub-envs."""

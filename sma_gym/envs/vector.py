@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -87,7 +87,75 @@ class EpisodeLimit(ImportableSpec):
         ImportableSpec.spec.fset(self, value)
 
 
-class SMAVectorEnv(MadeWith, EpisodeLimit, VectorEnv):
+class SubEnvAccess:
+    """Mixin of the native vector envs: Gymnasium's ``get_attr``, ``set_attr`` and ``call``
+    as ``SyncVectorEnv`` has them (one entry per sub-env), over one batched env. Code
+    written against the sync env (``v.call("reference_description")``) failed with an
+    ``AttributeError`` on the native one (found by a new user). ``PER_ENV`` attributes and
+    ``PER_ENV_METHODS`` results hold one entry per sub-env, which sub-env i gets; other
+    attributes are shared by every sub-env."""
+
+    num_envs: int
+    FIXED_AT_MAKE: ClassVar[tuple[str, ...]] = ()
+    PER_ENV: ClassVar[tuple[str, ...]] = ()
+    PER_ENV_METHODS: ClassVar[tuple[str, ...]] = ("reference_description", "render")
+    """Methods whose result is a sequence with one entry per sub-env."""
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """Each sub-env's value of the attribute ``name`` (a tuple of ``num_envs``)."""
+        value = getattr(self, name)
+        if name in self.PER_ENV:
+            return tuple(value[i] for i in range(self.num_envs))
+        return (value,) * self.num_envs
+
+    def set_attr(self, name: str, values: Any) -> None:
+        """Set the attribute ``name``, shared by every sub-env: one value, or a list or tuple
+        of ``num_envs`` equal values (``SyncVectorEnv`` takes one per sub-env; here they are
+        one attribute). Refused: an attribute the simulator or the spaces were built from,
+        and one held per sub-env."""
+        if name in self.FIXED_AT_MAKE:
+            raise ValueError(
+                f"set_attr({name!r}): fixed when the env is made (the simulator was built with it); "
+                f"make a new env with {name}=... instead"
+            )
+        if name in self.PER_ENV:
+            raise ValueError(f"set_attr({name!r}): one value per sub-env, drawn by the env; expected another name")
+        if isinstance(values, (list, tuple)):
+            if len(values) != self.num_envs:
+                raise ValueError(
+                    f"set_attr({name!r}, ...): {len(values)} values for {self.num_envs} sub-envs; expected one "
+                    "value, or one per sub-env"
+                )
+            if any(v is not values[0] and not _same(v, values[0]) for v in values):
+                raise ValueError(
+                    f"set_attr({name!r}, ...): the values differ between sub-envs, but the native vector env "
+                    "shares one; expected equal values (or one sub-env per env: vectorization_mode='sync')"
+                )
+            values = values[0]
+        setattr(self, name, values)
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """Each sub-env's result of ``name``: an attribute's value (as :meth:`get_attr`), or
+        the result of a method in ``PER_ENV_METHODS`` called once for the batch."""
+        attribute = getattr(self, name)
+        if not callable(attribute):
+            return self.get_attr(name)
+        if name not in self.PER_ENV_METHODS:
+            raise ValueError(
+                f"call({name!r}): the native vector env runs its sub-envs as one batch; expected an attribute or "
+                f"one of {', '.join(self.PER_ENV_METHODS)} (call the env's own {name}() for the batch)"
+            )
+        return tuple(attribute(*args, **kwargs))
+
+
+def _same(a: Any, b: Any) -> bool:
+    try:
+        return bool(np.all(a == b))
+    except Exception:
+        return False
+
+
+class SMAVectorEnv(MadeWith, EpisodeLimit, SubEnvAccess, VectorEnv):
     __doc__ = docs.env_doc(
         "``num_envs`` single-actuator envs of one variant, simulated as one batch.",
         Description="""
@@ -98,7 +166,9 @@ class SMAVectorEnv(MadeWith, EpisodeLimit, VectorEnv):
             `SyncVectorEnv` does) and draws its references, conditions and sensor noise from
             its own generator in the same order as a single env. Besides the Gymnasium API:
             `reference_description()`, `conditions`, `reset_envs(indices)`, and the per-sub-env
-            arrays `position_scale_m`, `resistance_scale_ohm`. Stable-baselines3 can use it in
+            arrays `position_scale_m`, `resistance_scale_ohm`; `get_attr`, `set_attr` and
+            `call` answer as `SyncVectorEnv`'s, one entry per sub-env (an attribute set is
+            shared by every sub-env). Stable-baselines3 can use it in
             any autoreset mode through :class:`sma_gym.envs.sb3.SB3VecEnv`.
             """,
         Action_Space=docs.join(
