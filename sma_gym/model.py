@@ -58,11 +58,22 @@ class ModelConfig:
         active = [s.name for s in self.effects.active()]
         return self.actuator.name + ("+" + "+".join(active) if active else "")
 
-    def with_effect(self, name: str, values: Mapping[str, float], form: str = "default") -> ModelConfig:
-        """Copy with one effect set (replacing an earlier setting of the same effect)."""
+    def with_effect(self, name: str, values: Mapping[str, float], form: str | None = None) -> ModelConfig:
+        """Copy with one effect set. ``values`` update the model's own setting of the effect
+        where it has one (a partial mapping changes only the parameters it names; it reset
+        the others to their off values, e.g. a fitted time constant), and start from the off
+        values where it has none; ``form`` replaces the effect's form (``None``: its form in
+        the model, else ``"default"``). An empty mapping is refused, as in a model file: it
+        set nothing and read as the effect switched on."""
         if not isinstance(values, Mapping):
             raise ValueError(f"with_effect({name!r}, {values!r}): expected a mapping of parameter names to values")
-        return replace(self, effects=self.effects.with_setting(EffectSetting(name, dict(values), form)))
+        if not values:
+            names = [p.name for p in get_effect(name).parameters]
+            raise ValueError(f"with_effect({name!r}, {{}}): no parameter value given; expected some of {names}")
+        current = self.effects.get(name)
+        merged = {**(current.values if current is not None else {}), **values}
+        form = form if form is not None else (current.form if current is not None else "default")
+        return replace(self, effects=self.effects.with_setting(EffectSetting(name, merged, form)))
 
     def with_actuator(self, **changes: Any) -> ModelConfig:
         """Copy with actuator fields changed (``"driver.supply_voltage_v": 15.0``, ...)."""
@@ -107,6 +118,14 @@ class ModelConfig:
                     raise ValueError(
                         f"effect {name!r} gives no parameter values: expected its parameters "
                         f"{[p.name for p in get_effect(name).parameters]} (or leave the effect out)"
+                    )
+                missing = [p.name for p in get_effect(name).parameters if p.name not in given]
+                if isinstance(given, Mapping) and missing:
+                    # As the actuator's fields: one left out took its off value, silently (a
+                    # warm_surroundings without its gain loaded and ran as no effect at all).
+                    raise ValueError(
+                        f"effect {name!r} leaves out {missing}: expected every parameter of the effect "
+                        f"{[p.name for p in get_effect(name).parameters]} (a model file gives every value)"
                     )
             actuator = ActuatorParams.from_dict(data.get("actuator", {}))
             effects = EffectSet.of(data.get("effects", {}))

@@ -1826,6 +1826,29 @@ def test_an_effect_listed_without_values_in_a_model_file_is_refused_not_switched
     assert ModelConfig.load(tmp_path / "m.json").effects.value("transformation_spread", "spread_k") == 5.0
 
 
+def test_an_effect_with_some_of_its_parameters_is_refused_in_a_file_and_merged_by_with_effect(tmp_path):
+    """A new user's trial: a model file whose warm_surroundings gave its time constant only
+    loaded with the gain at its off value, 0, and ran as no effect at all (no position
+    differed from the model without it); ``with_effect`` with one parameter reset the fitted
+    other to its off value, and with ``{}`` was a silent no-op that saved as an effect."""
+    from sma_gym.model import ModelConfig
+
+    warm = ModelConfig().with_effect("warm_surroundings", {"gain_k_j": 0.1, "time_constant_s": 20.0}, form="electrical")
+    data = warm.to_dict()
+    data["effects"]["warm_surroundings"]["parameters"] = {"time_constant_s": 20.0}
+    (tmp_path / "partial.json").write_text(json.dumps(data))
+    with pytest.raises(ValueError, match=r"partial\.json': effect 'warm_surroundings' leaves out \['gain_k_j'\]"):
+        ModelConfig.load(tmp_path / "partial.json")
+    # A partial mapping changes what it names and keeps the rest, the form included.
+    changed = warm.with_effect("warm_surroundings", {"gain_k_j": 0.2}).effects.get("warm_surroundings")
+    assert dict(changed.values) == {"gain_k_j": 0.2, "time_constant_s": 20.0} and changed.form == "electrical"
+    assert warm.with_effect("warm_surroundings", {"gain_k_j": 0.2}, "default").effects.form("warm_surroundings") == (
+        "default"
+    )
+    with pytest.raises(ValueError, match=r"with_effect\('sensor_lag', \{\}\): no parameter value given"):
+        warm.with_effect("sensor_lag", {})
+
+
 def test_a_sidecar_condition_is_checked_against_the_range_of_the_parameter_it_sets(tmp_path):
     """The loader accepted a 4 mm wire and a 0 V supply (its own ranges), which the model then
     refused without naming the sidecar."""
