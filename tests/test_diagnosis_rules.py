@@ -1699,3 +1699,24 @@ def test_an_effect_found_before_and_named_back_in_its_default_form_keeps_that_fo
     # Unchanged forms switch nothing.
     forms, switched = workflow._forms_carried(forms, ["latent_heat", "transformation_spread"], parameters)
     assert switched == {} and forms == {"latent_heat": "default", "transformation_spread": "uniform"}
+
+
+def test_the_most_concentrated_regimes_are_pooled_over_the_samples_of_every_file():
+    """A new user's trial: the report named "holding" first where its own plot ranked it
+    fifth, because a regime on 4 % of a short file (concentration 5) counted as much as the
+    long file's. Pooled, each file weighs by its samples and its squared error."""
+    from sma_gym.diagnosis.localise import pooled_regimes, summary
+
+    def entry(samples, error, regimes):
+        stats = {k: {"fraction_of_samples": f, "share_of_squared_error": s} for k, (f, s) in regimes.items()}
+        return {"regimes": {"position": stats}, "totals": {"position": {"samples": samples, "squared_error": error}}}
+
+    files = [
+        entry(1000, 1.0, {"holding": (0.3, 0.3), "cooling": (0.5, 0.7)}),
+        entry(50, 0.01, {"holding": (0.04, 0.2)}),
+    ]
+    assert summary(files, top=1) == ["cooling"]
+    pooled = pooled_regimes(files)
+    assert pooled["holding"]["fraction_of_samples"] == pytest.approx(302 / 1050)
+    assert pooled["holding"]["share_of_squared_error"] == pytest.approx(0.302 / 1.01)
+    assert pooled["cooling"]["concentration"] == pytest.approx((0.7 / 1.01) / (500 / 1050))

@@ -86,11 +86,12 @@ def localise(
     """Regimes and windows of one trace, for each measured output."""
     masks = regime_masks(model, data, control_period_s)
     t = data.trace.t
-    out: dict[str, Any] = {"file": data.trace.name, "regimes": {}, "windows": {}}
+    out: dict[str, Any] = {"file": data.trace.name, "regimes": {}, "windows": {}, "totals": {}}
     for name, measured in data.outputs.items():
         r = measured - simulated[name][:, 0]
         valid = np.isfinite(r) & data.mask
         total = float(np.sum(r[valid] ** 2))
+        out["totals"][name] = {"samples": int(valid.sum()), "squared_error": total}
         regimes = {}
         for label, m in masks.items():
             sel = m & valid
@@ -128,11 +129,36 @@ def worst_windows(
     ]
 
 
-def summary(localised: list[dict[str, Any]], output: str = "position", top: int = 3) -> list[str]:
-    """The regimes with the most concentrated error, pooled over files."""
-    pooled: dict[str, list[float]] = {}
+def pooled_regimes(localised: list[dict[str, Any]], output: str = "position") -> dict[str, dict[str, float]]:
+    """Each regime's share of the samples and of the squared error of ``output`` over all
+    files together (each file weighted by its samples and its error, not one vote each: a
+    regime on 4 % of a short file outranked the long file's main one), and their ratio,
+    ``concentration``. A regime too rare to count in a file (under 5 samples) counts 0 there."""
+    samples = sum(e["totals"][output]["samples"] for e in localised if output in e.get("totals", {}))
+    error = sum(e["totals"][output]["squared_error"] for e in localised if output in e.get("totals", {}))
+    sums: dict[str, list[float]] = {}
     for entry in localised:
+        totals = entry.get("totals", {}).get(output)
+        if totals is None:
+            continue
         for label, stats in entry["regimes"].get(output, {}).items():
-            pooled.setdefault(label, []).append(stats["concentration"])
-    ranked = sorted(pooled.items(), key=lambda kv: -np.mean(kv[1]))
+            acc = sums.setdefault(label, [0.0, 0.0])
+            acc[0] += stats["fraction_of_samples"] * totals["samples"]
+            acc[1] += stats["share_of_squared_error"] * totals["squared_error"]
+    pooled = {}
+    for label, (n, e) in sums.items():
+        fraction = n / samples if samples > 0 else 0.0
+        share = e / error if error > 0 else 0.0
+        pooled[label] = {
+            "fraction_of_samples": fraction,
+            "share_of_squared_error": share,
+            "concentration": share / fraction if fraction > 0 else 0.0,
+        }
+    return pooled
+
+
+def summary(localised: list[dict[str, Any]], output: str = "position", top: int = 3) -> list[str]:
+    """The regimes with the most concentrated error, pooled over files (:func:`pooled_regimes`)."""
+    pooled = pooled_regimes(localised, output)
+    ranked = sorted(pooled.items(), key=lambda kv: -kv[1]["concentration"])
     return [label for label, _ in ranked[:top]]

@@ -16,6 +16,7 @@ import numpy as np
 from sma_gym._io import STAGING_PREFIX, signals_deferred, write_json, write_text
 from sma_gym.data.measured import MeasuredTrace
 from sma_gym.diagnosis import fitting
+from sma_gym.diagnosis.localise import pooled_regimes
 from sma_gym.diagnosis.workflow import (
     BIC_THRESHOLD,
     CONTROL_PERIOD_S,
@@ -446,13 +447,10 @@ def _plot_trace(
 def _plot_regimes(result: Diagnosis, path: Path) -> Path:
     fig, axes = new_figure(1, 1, size=(10, 4.5))
     ax = axes[0, 0]
-    pooled: dict[str, list[tuple[float, float]]] = {}
-    for entry in result.where["files"]:
-        for label, st in entry["regimes"].get("position", {}).items():
-            pooled.setdefault(label, []).append((st["fraction_of_samples"], st["share_of_squared_error"]))
+    pooled = pooled_regimes(result.where["files"], "position")
     labels = list(pooled)
-    frac = [np.mean([a for a, _ in pooled[k]]) for k in labels]
-    share = [np.mean([b for _, b in pooled[k]]) for k in labels]
+    frac = [pooled[k]["fraction_of_samples"] for k in labels]
+    share = [pooled[k]["share_of_squared_error"] for k in labels]
     idx = np.arange(len(labels))
     ax.bar(idx - 0.2, np.array(frac) * 100, 0.4, label="share of samples")
     ax.bar(idx + 0.2, np.array(share) * 100, 0.4, label="share of squared position error")
