@@ -242,7 +242,12 @@ def test_cli_writes_report_model_and_json_and_the_env_runs_on_the_correction(tmp
     reasons = {c["name"]: (c["supported"], c["not_supported_because"]) for c in result["candidates"][1:]}
     assert result["candidates"][0]["name"] == "nominal refit"  # the reference, not a candidate for support
     assert reasons["latent_heat"] == (True, "") and all(s != bool(r) for s, r in reasons.values())
-    assert result["conditions"] == {"supply_voltage_v": 10.0, "pwm_frequency_hz": 500.0}
+    assert result["conditions"] == {  # every condition synth's sidecar gives
+        "supply_voltage_v": 10.0,
+        "wire_diameter_m": 3e-4,
+        "pwm_frequency_hz": 500.0,
+        "ambient_temperature_c": 20.0,
+    }
     out = tmp_path / "out"
     assert (out / "diagnosis.md").read_text().startswith("# Diagnosis")
     written = json.loads((out / "diagnosis.json").read_text())

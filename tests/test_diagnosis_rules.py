@@ -1607,7 +1607,8 @@ def test_the_corrected_model_runs_under_the_conditions_its_files_were_fitted_und
     result = workflow.diagnose([at_15v], [], ModelConfig(), effects=[], max_rounds=1, threads=1)
     model = result.corrected_model
     assert model.actuator.driver.supply_voltage_v == 15.0
-    assert result.conditions == {"supply_voltage_v": 15.0, "pwm_frequency_hz": 500.0}
+    same = {"wire_diameter_m": 3e-4, "pwm_frequency_hz": 500.0, "ambient_temperature_c": 20.0}
+    assert result.conditions == {"supply_voltage_v": 15.0, **same}
     assert "supply_voltage_v = 15" in model.notes
     assert model.actuator.name == "standard-diagnosed" and "corrected by sma-gym diagnose" in model.actuator.description
     saved = ModelConfig.load(model.save(tmp_path / "corrected_model.json"))
@@ -1623,7 +1624,7 @@ def test_the_corrected_model_runs_under_the_conditions_its_files_were_fitted_und
     assert both.corrected_model.actuator.driver.supply_voltage_v == 10.0  # the model's own
     assert both.differing_conditions == {"supply_voltage_v": {"bench15.csv": 15.0, "bench10.csv": 10.0}}
     assert "the files differ in supply_voltage_v (bench15.csv 15, bench10.csv 10)" in both.corrected_model.notes
-    assert both.conditions == {"pwm_frequency_hz": 500.0}
+    assert both.conditions == same
 
 
 def test_without_held_out_files_the_chosen_model_is_refitted_on_the_whole_files(tmp_path, capsys):

@@ -36,10 +36,12 @@ from sma_gym._io import check_output_file, locked_folder, signals_deferred, writ
 from sma_gym._validation import require_int_range, require_range
 from sma_gym.data.measured import (
     DIAGNOSIS_MIN_ROWS,
+    SIDECAR_KEYS,
     MeasuredTrace,
     sidecar_write_path,
     write_trace,
 )
+from sma_gym.diagnosis.fitting import condition_value
 from sma_gym.effects import EFFECTS
 from sma_gym.model import ModelConfig, load_model, model_names
 from sma_gym.simulator import Simulator
@@ -240,7 +242,9 @@ def generate(spec: SynthSpec, min_driven_s: float = 0.0) -> tuple[MeasuredTrace,
         resistance=take(rec["resistance"], math.nan) if spec.electrical else None,
         current=take(rec["current"], math.nan) if spec.electrical else None,
         wire_voltage=take(rec["voltage"], math.nan) if spec.electrical else None,
-        conditions={"supply_voltage_v": p.driver.supply_voltage_v, "pwm_frequency_hz": p.driver.pwm_frequency_hz},
+        # Every condition a sidecar can give (the generator knows them all; without the
+        # diameter and the ambient every diagnosis of its files noted them as assumed).
+        conditions={key: condition_value(truth, key) for key in SIDECAR_KEYS},
     )
     labels = {
         "effect": spec.effect,
