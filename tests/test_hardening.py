@@ -284,6 +284,13 @@ def test_synths_sidecar_names_a_named_model_so_diagnose_starts_from_it(tmp_path)
     unnamed = _synth(tmp_path, "file.csv", "--model", str(path))
     assert "model" not in json.loads((tmp_path / "file.csv.json").read_text())
     assert _sidecar_model([load_trace(unnamed)]) is None
+    # The labels say where the model came from and which effects it carried into the data
+    # (a file's own warm surroundings was in the data while the labels said "effect": null).
+    warm = load_model("wire-0.5mm").with_effect("warm_surroundings", {"gain_k_j": 0.1}).save(tmp_path / "w.json")
+    _synth(tmp_path, "warm.csv", "--model", str(warm), "--no-electrical")
+    labels = json.loads((tmp_path / "warm.labels.json").read_text())
+    assert labels["effect"] is None and labels["model_source"] == str(warm) and labels["electrical"] is False
+    assert labels["model_effects"]["warm_surroundings"]["parameters"]["gain_k_j"] == 0.1
 
 
 def test_synth_refuses_to_overwrite_any_of_its_outputs(tmp_path, capsys):

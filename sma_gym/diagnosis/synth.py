@@ -263,6 +263,10 @@ def generate(spec: SynthSpec, min_driven_s: float = 0.0) -> tuple[MeasuredTrace,
         "seed": spec.seed,
         "actuator_seed": spec.seed if spec.actuator_seed is None else spec.actuator_seed,
         "model": spec.model.actuator.name,
+        # The model's own effects are in the data too (a model file given as --model may
+        # carry some): "effect" is only the one hidden on top of them.
+        "model_effects": {s.name: s.to_dict() for s in spec.model.effects.active()},
+        "electrical": spec.electrical,
     }
     return trace, labels
 
@@ -282,19 +286,27 @@ def check_outputs(path: Path, overwrite: bool) -> None:
 
 
 def write(
-    spec: SynthSpec, path: Path, overwrite: bool = False, model_name: str | None = None, min_driven_s: float = 0.0
+    spec: SynthSpec,
+    path: Path,
+    overwrite: bool = False,
+    model_name: str | None = None,
+    min_driven_s: float = 0.0,
+    model_source: str | None = None,
 ) -> tuple[Path, Path]:
     """Write ``path`` (CSV), its sidecar ``path.json`` and the labels ``<stem>.labels.json``.
 
     ``model_name``, a preset or twin name, goes into the sidecar as ``"model"``, as a lab
     names its actuator's nominal model: ``sma-gym diagnose`` then starts from it without
-    ``--model``. Refuses, before any work, to replace any of them unless ``overwrite``.
+    ``--model``. ``model_source`` (the name or file the model came from) goes into the
+    labels as ``"model_source"``: a file's model name resolves to nothing. Refuses, before any work, to replace any of them unless ``overwrite``.
     The three are written into a hidden staging folder beside them and then moved into
     place, the CSV last, under a lock on the labels' name: an interrupt leaves the earlier three
     (or none) and two runs on one ``path`` never mix (the labels are the benchmarks' truth).
     """
     check_outputs(path, overwrite)
     trace, labels = generate(spec, min_driven_s)
+    if model_source is not None:
+        labels["model_source"] = model_source
     if model_name is not None:
         trace = replace(trace, conditions={**trace.conditions, "model": model_name})
     targets = output_paths(path)
@@ -412,7 +424,12 @@ def main(args) -> int:
     # diagnose could look up, so only presets and twins are named.
     named = args.model if args.model in model_names() else None
     csv_path, labels_path = write(
-        spec, Path(args.out), overwrite=args.overwrite, model_name=named, min_driven_s=MIN_DRIVEN_S
+        spec,
+        Path(args.out),
+        overwrite=args.overwrite,
+        model_name=named,
+        min_driven_s=MIN_DRIVEN_S,
+        model_source=str(args.model),
     )
     print(f"wrote {csv_path} (+ sidecar) and labels {labels_path}")
     if named is None:
