@@ -139,8 +139,10 @@ class ModelConfig:
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> ModelConfig:
-        """Read a model file; any problem is a ``ValueError`` naming the file (see :mod:`sma_gym._io`)."""
-        source = Path(path)
+        """Read a model file (``~`` is the home folder, as pandas reads it; a shell
+        expands it, a Python string does not); any problem is a ``ValueError`` naming the
+        file (see :mod:`sma_gym._io`)."""
+        source = Path(path).expanduser()
         data = read_json_object(source, "model file")
         return cls.from_dict(data, source=f"model file {str(source)!r}")
 
@@ -178,7 +180,7 @@ def load_model(spec: ModelSpec = None) -> ModelConfig:
             return ModelConfig(actuator=preset(text))
         if text in twin_names():
             return ModelConfig.load(twin_path(text))
-        if text.endswith(".json") or os.path.sep in text or os.path.exists(text):
+        if text.endswith(".json") or os.path.sep in text or text.startswith("~") or os.path.exists(text):
             return ModelConfig.load(text)
         raise ValueError(
             f"model = {text!r}: expected a preset name ({', '.join(model_names())}) or a path to a model JSON file"

@@ -317,3 +317,14 @@ def test_parts_effects_and_configs_are_checked_when_built_and_stay_as_checked():
         friction.effects.get("coulomb_friction").values["force_n"] = float("nan")
     saved = json.loads(json.dumps(standard().with_changes(**{"driver.supply_voltage_v": np.array(15.0)}).to_dict()))
     assert saved["driver"]["supply_voltage_v"] == 15.0
+
+
+def test_a_model_path_may_start_at_the_home_folder(tmp_path, monkeypatch):
+    """``model="~/x.json"`` said the file did not exist (a shell expands ``~``, Python does not)."""
+    import gymnasium as gym
+
+    monkeypatch.setenv("HOME", str(tmp_path))
+    ModelConfig(standard()).with_effect("latent_heat", {"change_j_kg": 24200.0}).save(tmp_path / "mine.json")
+    assert load_model("~/mine.json").effects.get("latent_heat") is not None
+    env = gym.make("sma_gym:SMATracking-v0", model="~/mine.json")
+    assert env.unwrapped.settings.model.effects.get("latent_heat") is not None
