@@ -119,8 +119,12 @@ class ModelConfig:
                         f"effect {name!r} gives no parameter values: expected its parameters "
                         f"{[p.name for p in get_effect(name).parameters]} (or leave the effect out)"
                     )
-                missing = [p.name for p in get_effect(name).parameters if p.name not in given]
-                if isinstance(given, Mapping) and missing:
+                missing = (
+                    [p.name for p in get_effect(name).parameters if p.name not in given]
+                    if isinstance(given, Mapping)
+                    else []
+                )
+                if missing:
                     # As the actuator's fields: one left out took its off value, silently (a
                     # warm_surroundings without its gain loaded and ran as no effect at all).
                     raise ValueError(

@@ -298,10 +298,11 @@ def write(
     ``model_name``, a preset or twin name, goes into the sidecar as ``"model"``, as a lab
     names its actuator's nominal model: ``sma-gym diagnose`` then starts from it without
     ``--model``. ``model_source`` (the name or file the model came from) goes into the
-    labels as ``"model_source"``: a file's model name resolves to nothing. Refuses, before any work, to replace any of them unless ``overwrite``.
-    The three are written into a hidden staging folder beside them and then moved into
-    place, the CSV last, under a lock on the labels' name: an interrupt leaves the earlier three
-    (or none) and two runs on one ``path`` never mix (the labels are the benchmarks' truth).
+    labels as ``"model_source"``: a file's model name resolves to nothing. Refuses, before
+    any work, to replace any of them unless ``overwrite``. The three are written into a
+    hidden staging folder beside them and then moved into place, the CSV last, under a lock
+    on the labels' name: an interrupt leaves the earlier three (or none) and two runs on one
+    ``path`` never mix (the labels are the benchmarks' truth).
     """
     check_outputs(path, overwrite)
     trace, labels = generate(spec, min_driven_s)
