@@ -494,7 +494,7 @@ def sigterm_as_interrupt() -> Iterator[None]:
       which sends the signal again a moment later, by then outside the callback.
     * The block may end before that: the stop is then raised at its end. Or the library
       fails before that, because its callback never finished (numba: "no compiled object
-      yet", a traceback and exit 1 in one of 80 stops with a cold cache): any error that
+      yet", a traceback and exit 1, once in 60 stops with a cold cache): any error that
       leaves the block after a stop was lost is that stop, and leaves as
       :class:`Terminated`; so does an error raised while handling a stop (a library that
       catches the interrupt and raises its own error).
