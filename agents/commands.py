@@ -115,8 +115,15 @@ def _evaluate_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print every metric as one JSON document")
     p.add_argument(
         "--experiments",
-        default="6.1,7,8,9,self-sensing",
-        help="comma-separated subset of 6.1, 7, 8, 9, self-sensing (default: all)",
+        default=None,
+        help="comma-separated subset of 6.1, 7, 8, 9, self-sensing (default: all; 6.1 with --model)",
+    )
+    p.add_argument(
+        "--model",
+        default=None,
+        help="the actuator Table 6.1 (and self-sensing) run on instead of the report's wire: a preset or twin "
+        "name or a model JSON file, e.g. the corrected_model.json of sma-gym diagnose; chapters 7-9 stay the "
+        "report's",
     )
     p.add_argument("--seeds", type=int, default=3, help="seeds per run (sensor noise differs); default 3")
     p.add_argument(
@@ -126,6 +133,8 @@ def _evaluate_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _evaluate(args: argparse.Namespace) -> int:
+    if args.experiments is None:
+        args.experiments = ",".join(evaluation.MODEL_EXPERIMENTS[:1] if args.model else evaluation.EXPERIMENTS)
     experiments = [e.strip() for e in args.experiments.split(",") if e.strip()]
     baselines = None if args.baselines is None else [b.strip() for b in args.baselines.split(",") if b.strip()]
     if baselines == []:
@@ -154,17 +163,20 @@ def _evaluate(args: argparse.Namespace) -> int:
         if label in labels[:k]:
             # One row per controller: a second would run it again and overwrite its row.
             raise ValueError(f"--baselines {baselines[k]!r}: {label!r} given twice; expected each controller once")
+    evaluation.require_model_experiments(args.model, experiments, name="--model")
     for policy in args.policy or []:
         agent = load_policy(policy)  # card, hash and zip checked now, not after the baselines ran
         _require_scored(policy, agent.env_id, experiments)
     if args.out is None:
-        return evaluate(args.out, args.policy or [], args.json, experiments, args.seeds, baselines)
+        return evaluate(args.out, args.policy or [], args.json, experiments, args.seeds, baselines, model=args.model)
     check_output_folder(args.out, must_be_empty=not args.overwrite)
     # Written into a staging folder and moved in at the end: an interrupt leaves the earlier
     # report whole (or nothing), and the earlier report's figures of other experiments or
     # policies, which would sit beside this one as its own, are removed then (those it listed).
     with locked_folder(args.out), staged_outputs(args.out, "evaluate") as staging:
-        return evaluate(str(staging), args.policy or [], args.json, experiments, args.seeds, baselines, args.out)
+        return evaluate(
+            str(staging), args.policy or [], args.json, experiments, args.seeds, baselines, args.out, args.model
+        )
 
 
 EVALUATE_OUTPUTS = (
@@ -229,16 +241,18 @@ def evaluate(
     n_seeds: int,
     baselines: Sequence[str] | None = None,
     shown_out: str | None = None,
+    model: str | None = None,
 ) -> int:
     """Score the baselines and the saved ``policies``; print the table (or JSON), write the report into ``out``
-    (``shown_out``: the folder named in the message, where a staging ``out`` is moved to)."""
+    (``shown_out``: the folder named in the message, where a staging ``out`` is moved to). ``model``: the
+    actuator of Table 6.1 and self-sensing (None: the report's)."""
     if n_seeds < 1:
         raise ValueError(f"seeds = {n_seeds!r}: expected an integer >= 1")
     agents = [load_policy(p) for p in policies]
     names = agent_names(policies, [a.name for a in agents])
     agents = [dataclasses.replace(a, name=name) for a, name in zip(agents, names)]
     chosen = None if baselines is None else [evaluation.baseline(b) for b in baselines]
-    results = evaluation.evaluate(agents, experiments, seeds=tuple(range(n_seeds)), baselines=chosen)
+    results = evaluation.evaluate(agents, experiments, seeds=tuple(range(n_seeds)), baselines=chosen, model=model)
     if out:
         paths = write_report(results, Path(out))
     if as_json:

@@ -1107,18 +1107,55 @@ AGENT_EXPERIMENTS: dict[str, tuple[str, ...]] = {
 agent is scored by its training run's comparison, over the chapter-7 conditions)."""
 
 
+MODEL_EXPERIMENTS = ("6.1", "self-sensing")
+"""The experiments :func:`evaluate` can run on a model of the user's (``model=``): chapters
+7-9 are the report's conditions (a fan, other supplies and wires, multiplexing) of its own
+wire, so they run on the report's wire only."""
+
+
+def require_model_experiments(model: Any, experiments: Sequence[str], name: str = "model") -> bool:
+    """Whether ``model`` is another actuator than the report's standard wire; refuses (naming
+    the argument ``name``) a model that cannot be loaded, and another model with experiments
+    outside :data:`MODEL_EXPERIMENTS`, before anything runs."""
+    if model is None:
+        return False
+    shown = f"{name} {model!r}" if name.startswith("-") else f"{name} = {model!r}"
+    try:
+        load_model(model)
+    except (OSError, ValueError) as err:
+        raise ValueError(f"{shown}: {err}") from err
+    if _is_standard(model):
+        return False
+    chapters = [e for e in experiments if e not in MODEL_EXPERIMENTS]
+    if chapters:
+        raise ValueError(
+            f"{shown} with experiments {', '.join(chapters)}: chapters 7-9 are the report's conditions "
+            f"of its own wire; expected only {' and '.join(MODEL_EXPERIMENTS)} on another model"
+        )
+    return True
+
+
 def evaluate(
     agents: Sequence[AgentPolicy] = (),
     experiments: Iterable[str] = EXPERIMENTS,
     seeds: Sequence[int] = DEFAULT_SEEDS,
     baselines: Sequence[PolicyEntry] | None = None,
+    model: Any = None,
 ) -> Results:
-    """Run the experiments for the baselines and the given agents, each over ``seeds``."""
+    """Run the experiments for the baselines and the given agents, each over ``seeds``.
+
+    ``model`` (a preset or twin name, a model file, a configuration; None: the report's) is
+    the actuator the baselines run Table 6.1 and the self-sensing comparison on, e.g. the
+    twin ``sma-gym diagnose`` identified; an agent is scored on the model it trained on,
+    beside the baselines there. Only :data:`MODEL_EXPERIMENTS` take another model than the
+    report's.
+    """
     seeds = require_seeds(seeds)
     experiments = tuple(experiments)
     for e in experiments:
         if e not in EXPERIMENTS:
             raise ValueError(f"experiment = {e!r}: expected one of {', '.join(EXPERIMENTS)}")
+    own_model = require_model_experiments(model, experiments)
     results = Results()
 
     def scored_in(experiment: str, env_id: str) -> bool:
@@ -1136,9 +1173,11 @@ def evaluate(
         # Checked before any experiment runs (a bad choice failed only after the others).
         sensing_labels = [PID.label, with_feedforward(VSC3).label] if baselines is None else _report_labels(base)
     if "6.1" in experiments:
-        for model, group in _by_model(tracking):
-            condition = distinct_condition(results, table_6_1_condition(model), model)
-            run_table_6_1(base + [agent_entry(a) for a in group], results, seeds, condition=condition, model=model)
+        for table_model, group in _by_model(tracking, default=model if own_model else "standard"):
+            condition = distinct_condition(results, table_6_1_condition(table_model), table_model)
+            run_table_6_1(
+                base + [agent_entry(a) for a in group], results, seeds, condition=condition, model=table_model
+            )
     for a in tracking:
         if not _is_standard(trained_model(a)) and {"7", "8"} & set(experiments):
             results.notes.append(
@@ -1168,20 +1207,22 @@ def evaluate(
         for agent in bank_agents:
             scheme = agent.env_kwargs.get("scheme", "fixed_slots")
             n = int(agent.env_kwargs.get("n_actuators", 4))
-            model = trained_model(agent)
-            bank_groups.setdefault((scheme, n, _model_key(model)), (model, []))[1].append(agent)
-        for (scheme, n, _), (model, group) in bank_groups.items():
+            bank_model = trained_model(agent)
+            bank_groups.setdefault((scheme, n, _model_key(bank_model)), (bank_model, []))[1].append(agent)
+        for (scheme, n, _), (bank_model, group) in bank_groups.items():
             pool = bank_baselines(scheme) + [bank_agent_entry(a) for a in group]
-            run_bank_tracking(pool, results, n, scheme, seeds, model=model)
+            run_bank_tracking(pool, results, n, scheme, seeds, model=bank_model)
     if "self-sensing" in experiments:
         # The report's self-sensing setup (§4.2): a fan; compared with the same controllers
         # reading the position sensor under the same conditions.
         with_sensor = [e for e in base if e.name in sensing_labels]
-        for model, group in _by_model(sensing, default=SELF_SENSING_MODEL):
+        # On a model of the user's, its own conditions (no fan added).
+        default = model if own_model else SELF_SENSING_MODEL
+        for sensing_model, group in _by_model(sensing, default=default):
             readers = [baseline(label, True) for label in sensing_labels]
-            condition = distinct_condition(results, self_sensing_condition(model), model)
+            condition = distinct_condition(results, self_sensing_condition(sensing_model), sensing_model)
             entries = readers + [agent_entry(a) for a in group] + with_sensor
-            run_table_6_1(entries, results, seeds, condition=condition, model=model)
+            run_table_6_1(entries, results, seeds, condition=condition, model=sensing_model)
     return results
 
 

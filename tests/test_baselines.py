@@ -16,7 +16,7 @@ from stable_baselines3.common.evaluation import evaluate_policy
 from sma_gym import ModelConfig, preset
 from sma_gym.cli import main
 from sma_gym.provenance import describe, provenance
-from sma_gym_agents import ALL_SPECS, ControllerPolicy, ResistanceCalibration
+from sma_gym_agents import ALL_SPECS, ControllerPolicy, ResistanceCalibration, evaluation
 from sma_gym_agents.controllers import PID, VSC3, VSC4, with_feedforward
 from sma_gym_agents.evaluation import (
     Results,
@@ -319,6 +319,34 @@ def test_cli_rejects_unknown_experiments_and_policies(capsys):
     assert "experiment" in capsys.readouterr().err
     assert main(["evaluate", "--policy", "/nonexistent/model.zip", "--experiments", "8"]) == 2
     assert "no such file" in capsys.readouterr().err
+
+
+def test_cli_evaluates_the_baselines_on_a_model_of_the_users_and_refuses_what_it_cannot(tmp_path, capsys):
+    # A twin from sma-gym diagnose, as a user has it: a model file of their own.
+    from sma_gym.model import load_model
+
+    twin = tmp_path / "corrected_model.json"
+    load_model("bench-0.5mm-ht").save(str(twin))
+    code = main(["evaluate", "--model", str(twin), "--baselines", "PID", "--seeds", "1", "--json"])
+    records = json.loads(capsys.readouterr().out)
+    assert code == 0
+    # --model alone runs Table 6.1 only, on that model and not on the report's wire.
+    assert {(r["experiment"], r["condition"]) for r in records} == {("6.1", f"model {twin}")}
+    scale = evaluation.stroke_scale(str(twin))
+    assert scale > 1.5  # the twin's stroke is longer: its references are its own
+    # Refused before any work, naming the value: a model that does not load, and chapters
+    # that are the report's conditions of its own wire.
+    for argv, words in (
+        (["--model", str(tmp_path / "none.json")], ["--model", "none.json", "does not exist"]),
+        (["--model", "bench-0.5mm-ht", "--experiments", "6.1,8"], ["--model 'bench-0.5mm-ht'", "8", "6.1"]),
+    ):
+        assert main(["evaluate", *argv, "--out", str(tmp_path / "out")]) == 2
+        err = capsys.readouterr().err
+        assert all(w in err for w in words), err
+        assert not (tmp_path / "out").exists()
+    # The report's wire given by name is the report's: every experiment may run on it.
+    assert evaluation.require_model_experiments("standard", evaluation.EXPERIMENTS) is False
+    assert evaluation.require_model_experiments("bench-0.5mm-ht", ("6.1", "self-sensing")) is True
 
 
 def _synthetic_results(condition: str, policies: list[str]) -> Results:
