@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import hashlib
 import math
 import re
 from collections.abc import Sequence
-from pathlib import Path
+from pathlib import Path, PurePosixPath, PureWindowsPath
 
 from sma_gym._io import write_text
 from sma_gym.electrical.multiplexer import io_counts
@@ -272,6 +273,23 @@ def _plot_responses(
     return save(fig, out)
 
 
+def condition_slug(condition: str) -> str:
+    """``condition`` as part of a file name: a model given by its path keeps only the file's
+    name (its folders made names like ``table6_1_model_home_me_runs_..._corrected_model.json``,
+    and a deep one longer than the 255 bytes a file name may have: the report failed after
+    all the work), characters other than letters, digits, '.' and '-' become '_', and a name
+    still longer than 80 characters is cut with a digest of the whole condition."""
+    shown = condition
+    head, sep, label = condition.partition("model ")
+    if sep and ("/" in label or "\\" in label):
+        label = PureWindowsPath(label).name if "\\" in label else PurePosixPath(label).name
+        shown = f"{head}{sep}{label}"
+    slug = re.sub(r"[^A-Za-z0-9.-]+", "_", shown).strip("_.") or "condition"
+    if len(slug) > 80:
+        slug = f"{slug[:60].rstrip('_.')}_{hashlib.sha256(condition.encode()).hexdigest()[:8]}"
+    return slug
+
+
 def write_report(results: Results, out: Path) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     paths: list[Path] = []
@@ -330,7 +348,7 @@ def write_report(results: Results, out: Path) -> list[Path]:
     for condition in conditions_61:
         if condition in ("standard", "self-sensing"):
             continue
-        slug = re.sub(r"[^A-Za-z0-9.-]+", "_", condition).strip("_.") or "condition"
+        slug = condition_slug(condition)
         while slug in slugs:
             slug += "_"
         slugs.add(slug)

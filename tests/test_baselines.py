@@ -325,13 +325,20 @@ def test_cli_evaluates_the_baselines_on_a_model_of_the_users_and_refuses_what_it
     # A twin from sma-gym diagnose, as a user has it: a model file of their own.
     from sma_gym.model import load_model
 
-    twin = tmp_path / "corrected_model.json"
+    # Deep in the user's folders: the plots were named after the whole path, longer than the
+    # 255 bytes a file name may have, and the report failed after the work.
+    folder = tmp_path.joinpath(*(c * 60 for c in "abcde"))
+    folder.mkdir(parents=True)
+    twin = folder / "my twin.json"
     load_model("bench-0.5mm-ht").save(str(twin))
-    code = main(["evaluate", "--model", str(twin), "--baselines", "PID", "--seeds", "1", "--json"])
+    out = tmp_path / "ev"
+    argv = ["evaluate", "--model", str(twin), "--baselines", "PID", "--seeds", "1", "--json", "--out", str(out)]
+    code = main(argv)
     records = json.loads(capsys.readouterr().out)
     assert code == 0
     # --model alone runs Table 6.1 only, on that model and not on the report's wire.
     assert {(r["experiment"], r["condition"]) for r in records} == {("6.1", f"model {twin}")}
+    assert {p.name for p in out.glob("*.png")} == {f"table6_1_model_my_twin.json_{r}.png" for r in ("step", "sine")}
     scale = evaluation.stroke_scale(str(twin))
     assert scale > 1.5  # the twin's stroke is longer: its references are its own
     # Refused before any work, naming the value: a model that does not load, and chapters
@@ -415,7 +422,7 @@ def test_report_of_another_actuators_table_has_its_figures_too(tmp_path):
     condition = "model runs/my wire.json"
     paths = write_report(_synthetic_results(condition, ["PID", "VSC3 + FF", "PPO agent"]), tmp_path)
     names = sorted(p.name for p in paths if p.suffix == ".png")
-    assert names == ["table6_1_model_runs_my_wire.json_sine.png", "table6_1_model_runs_my_wire.json_step.png"]
+    assert names == ["table6_1_model_my_wire.json_sine.png", "table6_1_model_my_wire.json_step.png"]
     assert all((tmp_path / n).stat().st_size > 0 for n in names)
 
 
