@@ -1264,8 +1264,8 @@ def _by_model(agents: Sequence[AgentPolicy], default: Any = "standard") -> list[
 
 
 def _model_key(model: Any) -> str:
+    """One key per actuator however it is given: a name, a file of it (a twin and its copy
+    were two actuators, so the baselines ran, and were tabled, twice) or a configuration."""
     if _is_standard(model):
         return "standard"  # however given: one group, one Table 6.1 beside the report's
-    if isinstance(model, (str, os.PathLike)):
-        return os.fspath(model)
     return json.dumps(load_model(model).to_dict(), sort_keys=True)

@@ -554,6 +554,14 @@ def test_an_agent_trained_on_another_actuator_is_scored_on_it_beside_the_baselin
     full_power_w = 7.0**2 / preset("wire-0.2mm").wire.cold_resistance_ohm
     assert 0.8 * full_power_w < np.max(pid["power_w"]) < 1.2 * full_power_w < 10.0
     assert np.max(trace["power_w"]) < 1.2 * full_power_w
+    # The baselines on that actuator given as a file (evaluate --model): one table, the agent in
+    # it (a name and a file of one actuator were two, the baselines run and tabled twice).
+    from sma_gym.model import ModelConfig
+
+    ModelConfig(actuator=mine).save(str(tmp_path / "mine.json"))
+    results = evaluate([agent], ["6.1"], seeds=(0,), baselines=[baseline(PID)], model=tmp_path / "mine.json")
+    assert results.distinct("6.1", "condition") == [f"model {tmp_path / 'mine.json'}"]
+    assert results.distinct("6.1") == ["PID", "mine"]
 
 
 def test_the_reports_step_and_sine_run_at_the_same_fractions_of_a_shorter_actuators_stroke():
