@@ -274,7 +274,8 @@ def evaluate(
 
 EVALUATE = Command(
     "evaluate",
-    "score the report's controllers (and trained agents) on the report's experiments",
+    "score the report's controllers (and trained agents) on the report's experiments, or on a model of yours "
+    "(--model: Table 6.1 on it)",
     _evaluate_arguments,
     _evaluate,
     needs=("scipy", "matplotlib", "stable_baselines3"),
