@@ -175,6 +175,7 @@ def test_a_refit_that_predicts_worse_than_the_model_as_given_is_not_shipped(tmp_
     assert "model as given" in md
     # Its parameters are the nominal values, not fitted ones (the report's table said "Fitted").
     assert "None was fitted" in md and "Fitted parameters" not in md
+    assert "uncertainties are statistical" not in md  # none was stated
 
 
 def test_without_heldout_files_the_end_of_each_file_is_held_out():

@@ -1721,3 +1721,14 @@ def test_the_most_concentrated_regimes_are_pooled_over_the_samples_of_every_file
     assert pooled["holding"]["fraction_of_samples"] == pytest.approx(302 / 1050)
     assert pooled["holding"]["share_of_squared_error"] == pytest.approx(0.302 / 1.01)
     assert pooled["cooling"]["concentration"] == pytest.approx((0.7 / 1.01) / (500 / 1050))
+
+
+@pytest.mark.parametrize("gap, far", [(24.0, True), (1.5, False), (math.nan, False)])
+def test_the_report_says_the_uncertainties_leave_out_model_form_and_when_that_matters(gap, far):
+    """The fitted parameters' uncertainties are statistical; a user read a tight one on a refit
+    that ends far above the noise (the real bench's 20x) as the actuator's value."""
+    from sma_gym.diagnosis.report import _uncertainty_caveat
+
+    text = _uncertainty_caveat(SimpleNamespace(rounds=[{"heldout_normalised_rms": gap}]))
+    assert "statistical" in text and "form differs" in text
+    assert ("24x the noise" in text and "stand in for" in text) if far else ("x the noise" not in text)

@@ -173,6 +173,8 @@ def write_report(
     ]
     for name, p in result.parameters.items():
         lines.append(f"| {name} | {p['value']:.5g} | {p['uncertainty']:.2g} | {p['unit']} |")
+    if not result.kept_as_given:
+        lines += ["", _uncertainty_caveat(result)]
     lines += [
         "",
         "## Candidates",
@@ -291,6 +293,24 @@ def _round_lines(result: Diagnosis) -> list[str]:
             'nominal model with that value corrected (docs/diagnosis.md, Real bench: "Bounds are findings").',
         ]
     return lines + [""]
+
+
+def _uncertainty_caveat(result: Diagnosis) -> str:
+    """What the uncertainties are, and, where the held-out gap ends above 2x the noise, why
+    they understate how far a parameter may be from the actuator's (a user read a tight
+    interval on a refit that ends at 20x the noise as the actuator's value)."""
+    text = (
+        "The uncertainties are statistical: the noise, inflated for correlated residuals. The error of a model "
+        "whose form differs from the actuator's is not in them."
+    )
+    gap = result.rounds[-1]["heldout_normalised_rms"] if result.rounds else math.nan
+    if math.isfinite(gap) and gap > 2.0:
+        text += (
+            f" The held-out gap ends at {gap:.3g}x the noise, so the corrected model does not explain everything: "
+            "a parameter may stand in for what it lacks and be further from the actuator's value than its "
+            "uncertainty says."
+        )
+    return text
 
 
 def _file_lines(result: Diagnosis) -> list[str]:
