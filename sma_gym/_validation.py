@@ -112,6 +112,8 @@ def require_range(
             if isinstance(value, (str, bytes))
             else ", not a boolean"
             if isinstance(value, (bool, np.bool_))
+            else ", a single number, not an array or sequence"
+            if isinstance(value, (list, tuple)) or (isinstance(value, np.ndarray) and value.ndim > 0)
             else ""
         )
         raise ValueError(f"{name} = {_fmt(value)}: {expected}{text}") from None

@@ -2,6 +2,7 @@
 and JSON info consumers, SB3 episode logging, the registry, video)."""
 
 import json
+import re
 import subprocess
 import sys
 import warnings
@@ -691,3 +692,90 @@ def test_reset_envs_given_one_index_instead_of_a_list_says_so():
         ValueError, match=r"reset_envs indices = 0: expected a sequence of sub-env indices, e\.g\. \[0\]"
     ):
         native("SMATracking-v0", 2).unwrapped.reset_envs(0)
+
+
+@pytest.mark.parametrize("env_id", ["SMATracking-v0", "SMAMultiplexed-v0"])
+def test_sb3_env_method_gives_each_sub_env_its_own_reference_as_dummy_vec_env(env_id):
+    """``env_method("reference_description")`` gave every sub-env the whole batch's list, and
+    a subset was refused (a new user's trial); DummyVecEnv gives each its own."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    ours = SB3VecEnv(native(env_id, 3))
+    ref = DummyVecEnv([lambda: gym.make("sma_gym:" + env_id) for _ in range(3)])
+    for venv in (ours, ref):
+        venv.seed(4)
+        venv.reset()
+    assert ours.env_method("reference_description") == ref.env_method("reference_description")
+    assert ours.env_method("reference_description", indices=[2]) == ref.env_method("reference_description", indices=[2])
+    assert len(ours.env_method("reference_description", indices=1)) == 1
+
+
+@pytest.mark.parametrize("env_id", ["SMATracking-v0", "SMAMultiplexed-v0"])
+def test_the_settings_an_env_was_made_with_are_read_only_and_its_energy_weight_acts_when_set(env_id):
+    """``env.unwrapped.overheat_limit_c = 90`` and SB3's ``set_attr("energy_weight", 5)`` were
+    taken and changed nothing (``get_attr`` even gave the new value back; a new user's
+    trial): the settings checked together at make now refuse, and the energy weight (a
+    reward curriculum) acts from the next step, as an env made with it does."""
+    made = gym.make("sma_gym:" + env_id, energy_weight=5.0)
+    action = np.ones(made.action_space.shape, np.float32)
+    made.reset(seed=0)
+    expected = made.step(action)[1]
+    single = gym.make("sma_gym:" + env_id)
+    single.unwrapped.energy_weight = 5.0
+    single.reset(seed=0)
+    assert single.step(action)[1] == expected and single.unwrapped.energy_weight == 5.0
+    vec = gym.make_vec("sma_gym:" + env_id, num_envs=2, vectorization_mode="vector_entry_point")
+    sb3 = SB3VecEnv(gym.make_vec("sma_gym:" + env_id, num_envs=2, vectorization_mode="vector_entry_point"))
+    vec.set_attr("energy_weight", 5.0)
+    sb3.set_attr("energy_weight", 5.0)
+    vec.reset(seed=0)
+    sb3.seed(0)
+    sb3.reset()
+    actions = np.stack([action, action])
+    assert vec.step(actions)[1][0] == expected
+    assert sb3.step(actions)[1][0] == pytest.approx(expected, rel=1e-6)  # SB3's rewards are float32
+    with pytest.raises(ValueError, match=r"energy_weight = -1: expected a value in \[0, 10\]"):
+        single.unwrapped.energy_weight = -1
+    for name, value in (("overheat_limit_c", 90.0), ("model", "wire-0.5mm"), ("reference", "sine"), ("pwm_mode", "x")):
+        with pytest.raises(
+            AttributeError, match=rf"{name} = .*fixed when the env is made.*gym.make\(id, {name}=\.\.\.\)"
+        ):
+            setattr(single.unwrapped, name, value)
+        with pytest.raises((AttributeError, ValueError), match="fixed when the env is made"):
+            vec.set_attr(name, value)
+    assert single.unwrapped.overheat_limit_c == made.unwrapped.overheat_limit_c
+
+
+@pytest.mark.parametrize("env_id", ["SMATracking-v0", "SMAMultiplexed-v0"])
+def test_a_step_after_the_episode_terminated_warns_once_per_episode(env_id):
+    """As Gymnasium's classic-control envs do; it stepped on silently (a new user's trial)."""
+    env = gym.make("sma_gym:" + env_id, overheat_limit_c=80.0).unwrapped
+    action = np.ones(env.action_space.shape, np.float32)
+    for _ in range(2):
+        env.reset(seed=0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            while not env.step(action)[2]:
+                pass
+        with pytest.warns(UserWarning, match=r"step\(\) after the episode terminated.*call reset\(\) first"):
+            env.step(action)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            env.step(action)  # once per episode
+
+
+def test_a_reference_asked_for_before_reset_names_the_sub_envs_not_the_actuators():
+    """A bank vector env of 2 sub-envs named its 8 actuators (a new user's trial)."""
+    from gymnasium.error import ResetNeeded
+
+    for env_id, words in (("SMAMultiplexed-v0", "sub-envs (banks) [0, 1]"), ("SMATracking-v0", "sub-envs [0, 1]")):
+        vec = gym.make_vec(f"sma_gym:{env_id}", num_envs=2, vectorization_mode="vector_entry_point")
+        with pytest.raises(ResetNeeded, match=re.escape(f"no reference yet for {words}: call reset() first")):
+            vec.call("reference_description")
+
+
+@pytest.mark.parametrize("value", [np.array([0.1]), [0.1], (0.1, 0.2)])
+def test_a_number_given_as_an_array_is_refused_as_such_not_as_out_of_range(value):
+    """``energy_weight=np.array([0.1])`` was told to be in [0, 10], which it is (a new user's trial)."""
+    with pytest.raises(ValueError, match=r"expected a value in \[0, 10\], a single number, not an array or sequence"):
+        gym.make("sma_gym:SMATracking-v0", energy_weight=value)

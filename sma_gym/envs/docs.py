@@ -168,6 +168,12 @@ MODEL_CHANGE = """
       Integer kwargs (`n_actuators`, `num_envs`, `max_episode_steps`) refuse what `int()`
       truncated (a 0-d array 2.9 gave 2). An env made with `model=ModelConfig(...)` or
       `ActuatorParams(...)` is made again from its JSON spec.
+    * main (unreleased, 2026-12-07, third): the settings an env is made with are read-only
+      attributes (`model`, `reference`, `overheat_limit_c`, `pwm_mode`, as `control_period_s`
+      was): setting one, directly or by `set_attr`, was taken and changed nothing.
+      `energy_weight` may be set (a reward curriculum; `set_attr` on the vector envs and
+      the SB3 adapter too) and acts from the next step. A step after the episode
+      terminated warns once per episode, as Gymnasium's classic-control envs do.
     """
 
 ROBUST_MODEL_CHECK = """

@@ -191,6 +191,11 @@ class SMAMultiplexedEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
         self._ref = np.zeros(self.n)
         self._duty = np.zeros((1, self.n))
         self._unstarted = UnstartedEnvs(1, vector=False)
+        self._warned_after_end = False
+        self._bind_task()
+
+    def _bind_task(self) -> None:
+        """The step's outputs, bound once (again when ``energy_weight`` is set)."""
         self._evaluate = self.task.bind(self.sim, self._actuators, self._obs, self._reward, self._term, self._ref)
 
     def duty_for(self, actions: np.ndarray) -> np.ndarray:
@@ -234,6 +239,7 @@ class SMAMultiplexedEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
         for j in range(self.n):
             self.task.reset_actuator(j, self.sim)
         self._evaluate()
+        self._warned_after_end = False
         self._unstarted.started()
         self._start_rendering()
         return self._obs.reshape(-1).copy(), self._info()
@@ -251,6 +257,9 @@ class SMAMultiplexedEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
 
     def step(self, action):
         self._unstarted.require_none()
+        if self._term.any() and not self._warned_after_end:
+            task.warn_step_after_termination()  # once per episode
+            self._warned_after_end = True
         a = require_action(action, self.n)
         duty = self.duty_for(a)
         if self.scheme == "shared_budget":
@@ -388,6 +397,10 @@ class SMAMultiplexedVectorEnv(MadeWith, EpisodeLimit, SubEnvAccess, VectorEnv):
         self._rngs: list[np.random.Generator | None] = [None] * m
         self._unstarted = UnstartedEnvs(m)
         self._all = np.arange(m * n, dtype=np.int64)
+        self._bind_task()
+
+    def _bind_task(self) -> None:
+        """The step's outputs, bound once (again when ``energy_weight`` is set)."""
         self._evaluate = self.task.bind(self.sim, self._all, self._obs, self._reward, self._term, self._ref)
 
     @property
@@ -410,7 +423,7 @@ class SMAMultiplexedVectorEnv(MadeWith, EpisodeLimit, SubEnvAccess, VectorEnv):
 
     def reference_description(self) -> list[list[dict[str, Any]]]:
         """Each bank's references (one list per bank, one dict per actuator)."""
-        described = self.task.describe_references()
+        described = self.task.describe_references(self.n, "sub-envs (banks)")
         return [described[b * self.n : (b + 1) * self.n] for b in range(self.num_envs)]
 
     def reset(self, *, seed: int | Sequence[int | None] | None = None, options: dict | None = None):

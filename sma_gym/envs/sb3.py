@@ -215,7 +215,10 @@ class SB3VecEnv(VecEnv):
         env.set_attr(attr_name, [value] * env.num_envs)  # one per sub-env: a list value stays one value
 
     def env_method(self, method_name: str, *method_args: Any, indices: Any = None, **method_kwargs: Any) -> list[Any]:
-        """Call a method of the shared env; ``reset`` may address a subset of sub-envs."""
+        """Call a method: one result per sub-env in ``indices``, as ``DummyVecEnv`` gives them.
+        A method with one result per sub-env (the vector env's ``PER_ENV_METHODS``, such as
+        ``reference_description``) and ``reset`` may address a subset; any other method is the
+        shared env's, called once for all of them."""
         chosen = self._indices(indices)
         env = self.venv.unwrapped
         if method_name == "reset":
@@ -225,6 +228,11 @@ class SB3VecEnv(VecEnv):
                     "keywords 'seed' and 'options', as an env's reset takes them"
                 )
             return self._reset_some(chosen, method_kwargs.get("seed"), method_kwargs.get("options"))
+        if method_name in getattr(env, "PER_ENV_METHODS", ()):
+            # Each sub-env's own result (the whole batch's list was given to every sub-env,
+            # and a subset was refused).
+            results = env.call(method_name, *method_args, **method_kwargs)
+            return [results[i] for i in chosen]
         self._require_all(chosen, f"env_method({method_name!r})")
         result = getattr(env, method_name)(*method_args, **method_kwargs)
         return [result] * len(chosen)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import inspect
 import json
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -302,11 +302,52 @@ _USABLE_CONDITIONS: dict[str, None] = {}
 first): a vector env's sub-envs, and every ``gym.make`` of the same settings, check once."""
 
 
+def _made_with(name: str, doc: str) -> property:
+    """A setting of :class:`Settings` as a read-only attribute of the env: setting it raised
+    nothing and changed nothing (``env.unwrapped.overheat_limit_c = 90``, SB3's ``set_attr``),
+    as ``control_period_s`` did before it was guarded."""
+
+    def get(self: MadeWith) -> Any:
+        return getattr(self.settings, name)
+
+    def refuse(self: MadeWith, value: Any) -> None:
+        raise AttributeError(
+            f"{name} = {value!r}: fixed when the env is made (it was checked against the model and the "
+            f"references, and the simulator built with it); make another env: gym.make(id, {name}=...)"
+        )
+
+    return property(get, refuse, doc=doc)
+
+
 class MadeWith:
-    """An env's settings as made (:class:`Settings`), read-only: the simulator and the spaces
-    were built from them, so changing one afterwards would change nothing it does."""
+    """An env's settings as made (:class:`Settings`), read-only except ``energy_weight``: the
+    simulator and the spaces were built from them and they were checked together, so changing
+    one afterwards would change nothing it does (or leave it unchecked)."""
 
     settings: Settings
+    task: task.TaskState
+
+    model = _made_with("model", "The model the env was made with (a robust env's nominal one).")
+    reference = _made_with(
+        "reference", "The ``reference`` kwarg as made (names or dicts); the episode's own: reference_description()."
+    )
+    overheat_limit_c = _made_with("overheat_limit_c", "Temperature that ends an episode [degC], fixed at make.")
+    pwm_mode = _made_with("pwm_mode", "How the simulator applies the duty (``PWM_MODES``), fixed at make.")
+
+    @property
+    def energy_weight(self) -> float:
+        """Weight of the electrical power in the reward [-]; may be set between episodes or
+        steps (a reward curriculum), checked as the kwarg is, and acts from the next step."""
+        return self.settings.energy_weight
+
+    @energy_weight.setter
+    def energy_weight(self, value: Any) -> None:
+        weight = require_range("energy_weight", value, 0.0, 10.0)
+        self.settings = replace(self.settings, energy_weight=weight)
+        self.task.energy_weight = weight
+        rebind = getattr(self, "_bind_task", None)  # envs that bind the step's outputs once
+        if rebind is not None:
+            rebind()
 
     @property
     def control_period_s(self) -> float:
@@ -361,6 +402,7 @@ class SMAEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
         self.duty_range = variant.duty_range
         self._set_scales()
         self._unstarted = UnstartedEnvs(1, vector=False)
+        self._warned_after_end = False
         self._duty = np.zeros((1, 1))
         self._obs = np.zeros((1, len(self.feature_names)), dtype=np.float32)
         self._reward = np.zeros(1)
@@ -369,6 +411,10 @@ class SMAEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
         self.condition: dict[str, Any] | None = None
         """The condition drawn at the last reset (robustness env), else ``None``."""
         self._condition_info: dict[str, float | bool] = {}
+        self._bind_task()
+
+    def _bind_task(self) -> None:
+        """The step's outputs, bound once (again when ``energy_weight`` is set)."""
         self._evaluate = self.task.bind(self.sim, _ONE_ACTUATOR, self._obs, self._reward, self._term, self._ref)
 
     def _set_scales(self) -> None:
@@ -399,6 +445,7 @@ class SMAEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
             self._condition_info = condition_info(self.condition)
             self._set_scales()
         self._evaluate()
+        self._warned_after_end = False
         self._unstarted.started()
         self._start_rendering()
         return self._obs[0].copy(), self._info()
@@ -409,6 +456,9 @@ class SMAEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
 
     def step(self, action):
         self._unstarted.require_none()
+        if self._term[0] and not self._warned_after_end:
+            task.warn_step_after_termination()  # once per episode
+            self._warned_after_end = True
         a = require_scalar_action(action)
         duty = self.duty_range.duty_for(a)
         self._duty[0, 0] = duty

@@ -31,6 +31,7 @@ from functools import partial
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
+from gymnasium import logger
 from gymnasium.error import ResetNeeded
 
 from sma_gym._jit import njit
@@ -218,13 +219,15 @@ class TaskState:
         self.wp_x[i] = ref.waypoint_x
         self.references[i] = ref
 
-    def describe_references(self) -> list[dict[str, Any]]:
+    def describe_references(self, per_env: int = 1, envs: str = "actuators") -> list[dict[str, Any]]:
         """Each actuator's reference as a dict (kind, name, parameters); ``ResetNeeded``
-        naming the actuators that have none yet (never reset)."""
-        missing = [i for i, ref in enumerate(self.references) if ref is None]
+        naming what has none yet (never reset): the ``envs`` (``"sub-envs"``, ``"banks"``)
+        of ``per_env`` actuators each, numbered as their owner numbers them (a bank vector
+        env of 2 banks named its 8 actuators)."""
+        missing = sorted({i // per_env for i, ref in enumerate(self.references) if ref is None})
         if missing:
             shown = missing if len(missing) <= 10 else [*missing[:10], "..."]
-            raise ResetNeeded(f"no reference yet for {shown}: call reset() first")
+            raise ResetNeeded(f"no reference yet for {envs} {shown}: call reset() first")
         return [ref.describe() for ref in self.references]  # type: ignore[union-attr]
 
     def reset_actuator(self, i: int, sim: Simulator) -> None:
@@ -354,6 +357,16 @@ def task_outputs(
         reward_out[j] = -abs(s[L.S_X] - r) / stroke - energy_weight * s[L.S_POWER] / p_full
         term_out[j] = s[L.S_T] > overheat_c
         ref_out[j] = r
+
+
+def warn_step_after_termination() -> None:
+    """Gymnasium's classic-control warning (CartPole's) for a step after the episode
+    terminated: the simulation goes on (the wire keeps its state), but what follows is no
+    episode; the native vector envs refuse such a step with autoreset disabled."""
+    logger.warn(
+        "step() after the episode terminated (the wire passed overheat_limit_c): call reset() first; "
+        "further steps go on simulating the overheated wire and belong to no episode"
+    )
 
 
 class UnstartedEnvs:

@@ -370,7 +370,7 @@ class SMAVectorEnv(MadeWith, EpisodeLimit, SubEnvAccess, VectorEnv):
 
     def reference_description(self) -> list[dict[str, Any]]:
         """Each sub-env's current reference (kind, name, parameters; keys depend on the kind)."""
-        return self.task.describe_references()
+        return self.task.describe_references(envs="sub-envs")
 
     def _reset_envs(self, envs: np.ndarray, options: dict | None) -> None:
         """Start a new episode in the sub-envs ``envs``, each drawing from its own generator."""
