@@ -839,3 +839,42 @@ def test_a_level_that_only_some_robust_sub_envs_reach_is_refused_for_all_and_cha
         c["supply_voltage_v"] for c in envs[1].unwrapped.conditions
     ]
     np.testing.assert_array_equal(envs[0].reset()[0], envs[1].reset()[0])
+
+
+def test_overheating_on_purpose_never_pays_and_costs_the_same_in_every_env():
+    """On a wire without an end-of-travel cut (the bench twin) duty 1 overheated it in 1.2 s
+    for a return of -60 to -74, better than the report's controllers tracking (-10 to -204
+    over four seeds; a new user's trial): the terminating step now carries the overheat
+    penalty, the same in the single env, the native vector env and a bank."""
+    from sma_gym.envs.task import overheat_penalty
+
+    env = gym.make("sma_gym:SMATracking-v0", model="bench-0.5mm-ht")
+    vec = gym.make_vec(
+        "sma_gym:SMATracking-v0", num_envs=2, vectorization_mode="vector_entry_point", model="bench-0.5mm-ht"
+    )
+    env.reset(seed=3)
+    vec.reset(seed=3)
+    unwrapped = env.unwrapped
+    p_full = unwrapped.sim.supply_voltage_v[0] ** 2 / unwrapped.sim.cold_resistance_ohm[0]
+    total = 0.0
+    for _ in range(1000):
+        _, reward, terminated, _, info = env.step(np.ones(1, np.float32))
+        _, rewards, ended, _, _ = vec.step(np.ones((2, 1), np.float32))
+        assert rewards[0] == reward and ended[0] == terminated
+        total += reward
+        if terminated:
+            break
+    assert terminated and info["temperature_c"] > unwrapped.overheat_limit_c
+    tracking = -abs(info["position_m"] - info["reference_m"]) / unwrapped.sim.usable_stroke_m[0]
+    penalty = overheat_penalty(info["power_w"] / p_full, unwrapped.energy_weight)
+    energy = unwrapped.energy_weight * info["power_w"] / p_full
+    assert reward == pytest.approx(tracking - energy + penalty, rel=1e-9)
+    assert penalty <= -1000.0
+    # Worse than any registered episode can be without it: 1000 steps a full stroke off.
+    assert total < -1000.0
+    # A bank's reward is the mean over its actuators: each one that overheats costs it whole.
+    bank = gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=2, model="bench-0.5mm-ht").unwrapped
+    bank.reset(seed=0)
+    while not bank.step(np.array([1.0, -1.0], np.float32))[2]:
+        pass
+    assert bank.actuator_rewards[0] < 2 * -1000.0 < -1.0 < bank.actuator_rewards[1]

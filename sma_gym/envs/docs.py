@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import textwrap
 
-from sma_gym.envs import task
+from sma_gym.envs import EPISODE_STEPS, task
 from sma_gym.envs.references import FIELDS, NAMED
 from sma_gym.simulator import PWM_MODES
 
@@ -61,7 +61,7 @@ ACTION = """
     10 ms; the report's controllers run at 1 kHz: pass `control_period_s=0.001`).
     """
 
-REWARD = """
+REWARD = f"""
     Per actuator and step, *r = -|x_true - r(t)| / stroke - energy_weight P_el / P_full*,
     with `P_el` the mean electrical power of the step and `P_full = V^2 / R_cold` the power
     at duty 1 into the cold wire (the hot wire's resistance is lower, so at duty 1 the
@@ -69,7 +69,13 @@ REWARD = """
     stroke (`ActuatorParams.usable_stroke_m`: the shorter of the driver's end-of-travel
     position and the loaded wire's reach, which is below eps0 l0 because the spring stretches
     the austenite and the hot wire expands: 17.16 of 17.96 mm on the bench twin). The reward uses the true
-    position, whatever the agent sees.
+    position, whatever the agent sees. The step on which a wire passes `overheat_limit_c`
+    also gets the overheat penalty, *-{EPISODE_STEPS} (1 + energy_weight P_el / P_full)*: a whole
+    registered episode a full stroke off the reference at the power that overheated it
+    (`task.overheat_penalty`; in a bank, for each actuator that overheats, as the bank's
+    reward is their mean), so that ending an episode early never pays: without it, holding
+    duty 1 on a wire without an end-of-travel cut (the bench twins) overheated it in 1.2 s
+    for a better return than the report's controllers tracking.
     """
 
 START = """
@@ -173,7 +179,10 @@ MODEL_CHANGE = """
       was): setting one, directly or by `set_attr`, was taken and changed nothing.
       `energy_weight` may be set (a reward curriculum; `set_attr` on the vector envs and
       the SB3 adapter too) and acts from the next step. A step after the episode
-      terminated warns once per episode, as Gymnasium's classic-control envs do.
+      terminated warns once per episode, as Gymnasium's classic-control envs do. Reward:
+      the overheat penalty (see Rewards); on the presets, whose end-of-travel cut keeps
+      the wire below 120 degC, no episode reaches the default limit, so their rewards are
+      unchanged.
     """
 
 ROBUST_MODEL_CHECK = """

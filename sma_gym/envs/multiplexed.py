@@ -174,7 +174,7 @@ class SMAMultiplexedEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
             pwm_mode="resolved",
             multiplexer=self.multiplexer,
         )
-        self.task = self.settings.task_state(self.n, task.OBS_POSITION)
+        self.task = self.settings.task_state(self.n, task.OBS_POSITION, per_reward=self.n)
         low, high = task.bounds(task.OBS_POSITION)
         self.features_per_actuator = len(low)
         self.observation_space = spaces.Box(np.tile(low, self.n), np.tile(high, self.n), dtype=np.float32)
@@ -381,7 +381,7 @@ class SMAMultiplexedVectorEnv(MadeWith, EpisodeLimit, SubEnvAccess, VectorEnv):
             pwm_mode="resolved",
             pwm_slots=slots,
         )
-        self.task = self.settings.task_state(m * n, task.OBS_POSITION)
+        self.task = self.settings.task_state(m * n, task.OBS_POSITION, per_reward=n)
         self.single_observation_space = bank.observation_space
         self.single_action_space = bank.action_space
         self.observation_space = batch_space(self.single_observation_space, m)
