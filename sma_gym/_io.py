@@ -592,3 +592,21 @@ def _release_frames(err: BaseException) -> None:
         traceback.clear_frames(exc.__traceback__)  # frames still running are skipped
         pending += [exc.__cause__, exc.__context__]
     gc.collect()
+
+
+PATH_ARGUMENTS = ("out", "files", "heldout", "policy", "model")
+"""The options of any command that name files or folders (a name or a list of them)."""
+
+
+def expand_home(args: Any) -> None:
+    """``~`` at the start of a path option is the home folder, as a model path already was
+    (``ModelConfig.load``): a quoted ``--out '~/x'`` wrote into a folder named ``~`` under
+    the current one while the message said the home folder (a new user's trial)."""
+    for name in PATH_ARGUMENTS:
+        value = getattr(args, name, None)
+        if isinstance(value, str):
+            setattr(args, name, os.path.expanduser(value) if value.startswith("~") else value)
+        elif isinstance(value, list):
+            setattr(
+                args, name, [os.path.expanduser(v) if isinstance(v, str) and v.startswith("~") else v for v in value]
+            )

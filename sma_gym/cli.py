@@ -24,7 +24,7 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
-from sma_gym._io import interrupt_behind, sigterm_as_interrupt, stopped
+from sma_gym._io import expand_home, interrupt_behind, sigterm_as_interrupt, stopped
 from sma_gym.extras import MissingExtraError, extra_error, install_hint, missing, require
 
 DEFAULT_DIAGNOSIS_MODEL = "standard"
@@ -563,6 +563,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # more use than "unrecognized arguments".
     args, unknown = parser.parse_known_args(argv)
     command = next(c for c in commands if c.name == args.command)
+    expand_home(args)
     if unknown and command.available:
         # The command's own usage, not the list of commands.
         _subparser(parser, command.name).error(f"unrecognized arguments: {' '.join(unknown)}")

@@ -2478,3 +2478,21 @@ def test_a_seed_sweeps_iqm_counts_a_seed_that_did_not_finish_as_the_worst_not_as
     assert agent["did_not_finish"] == 1 and entry["met"] == 4
     table = seeds_table(RunConfig.from_args(parse_args(["--quick"])), list(values), {goal.name: entry}, [], 60.0, 1)
     assert "nan" not in table and "count as the worst figure, +inf" in table
+
+
+def test_a_quoted_home_folder_in_a_commands_paths_is_the_home_folder(tmp_path, monkeypatch):
+    """``synth --out '~/x/s.csv'`` wrote ./~/x/s.csv and said ~/x/s.csv; ``diagnose '~/...'``
+    said the file did not exist, while ``--model '~/...'`` was read from the home folder
+    (a new user's trial)."""
+    from sma_gym.cli import main
+
+    home, elsewhere = tmp_path / "home", tmp_path / "cwd"
+    home.mkdir()
+    elsewhere.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    monkeypatch.chdir(elsewhere)
+    assert main(["synth", "--out", "~/x/s.csv", "--duration", "10"]) == 0
+    assert (home / "x" / "s.csv").exists() and not (elsewhere / "~").exists()
+    argv = ["diagnose", "~/x/s.csv", "--out", "~/d", "--max-rounds", "1", "--effects", "sensor_lag", "--threads", "1"]
+    assert main(argv) == 0
+    assert (home / "d" / "diagnosis.json").exists() and not (elsewhere / "~").exists()

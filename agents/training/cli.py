@@ -6,7 +6,7 @@ import datetime
 import sys
 from pathlib import Path
 
-from sma_gym._io import interrupt_behind, sigterm_as_interrupt, stopped
+from sma_gym._io import expand_home, interrupt_behind, sigterm_as_interrupt, stopped
 from sma_gym.extras import MissingExtraError, require
 from sma_gym_agents.training.config import ROOT, RunConfig, parse_args
 
@@ -31,6 +31,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.out is not None and not args.out.strip():
             # '' read as "no --out" trained into ./runs; ' ' made a folder named ' '.
             raise ValueError(f"--out {args.out!r}: expected a folder name (leave the option out for runs/<run>)")
+        expand_home(args)  # a quoted '~/runs' is the home folder, as sma-gym's commands read it
         with sigterm_as_interrupt():
             if args.seeds is not None or args.workers is not None or args.resume:
                 from sma_gym_agents.training.sweep import check_sweep_args, sweep_main
