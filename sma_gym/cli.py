@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import math
 import os
 import re
 import sys
@@ -88,11 +89,21 @@ def _diagnose(args: argparse.Namespace) -> int:
     require_diagnosable(fit, held)
     for note in data_notes(fit, held):
         print(f"sma-gym diagnose: note: {note}", file=sys.stderr)
-    named = _sidecar_model([*fit, *held])
+    named = _sidecar_model([*fit, *held], given=args.model)
     if args.model is not None and named is not None and args.model != named:
         print(f"sma-gym diagnose: note: --model {args.model!r} is used; the sidecars name {named!r}", file=sys.stderr)
     nominal = load_model(args.model or named or DEFAULT_DIAGNOSIS_MODEL)
+    if args.model is None and named is None:
+        # Said before the work, not only after an unexplained verdict: on another actuator
+        # the default names wrong effects with confidence as well (a new user's trial).
+        print(
+            f"sma-gym diagnose: note: no --model, and no sidecar names one: the nominal model is the default "
+            f"{DEFAULT_DIAGNOSIS_MODEL!r} (the report's 0.3 mm wire at 10 V); if your actuator differs, give --model "
+            "(a preset such as bench-0.5mm-ht-datasheet, or a model JSON file)",
+            file=sys.stderr,
+        )
     _note_assumed_conditions([*fit, *held], nominal)
+    _note_replaced_conditions([*fit, *held], nominal)
     outputs = CROSS_VALIDATION_OUTPUTS if args.cross_validate else None
     _require_out_free(args, out, fit, held, outputs)
     effects = None if args.effects is None else [e.strip() for e in args.effects.split(",")]
@@ -149,10 +160,34 @@ def _note_assumed_conditions(traces: Sequence[Any], nominal: Any) -> None:
         )
 
 
-def _sidecar_model(traces: Sequence[Any]) -> str | None:
-    """The nominal model the files' sidecars name (``"model"``), when ``--model`` is not
-    given: a preset or twin name (:func:`sma_gym.model.model_names`). Files that name
-    different models, or a name that is not a model, are refused."""
+def _note_replaced_conditions(traces: Sequence[Any], nominal: Any) -> None:
+    """Say where the files' sidecars give other conditions than the model has (its supply,
+    say): the fits run under the files' (a user with a model of 8 V and files at 12 V was
+    told only in the finished report; a new user's trial). One line per set of files."""
+    from sma_gym.diagnosis.fitting import SIDECAR_KEYS, condition_value
+
+    groups: dict[tuple[tuple[str, float, float], ...], list[str]] = {}
+    for trace in traces:
+        replaced = tuple(
+            (key, float(trace.conditions[key]), condition_value(nominal, key))
+            for key in SIDECAR_KEYS
+            if key in trace.conditions and not math.isclose(float(trace.conditions[key]), condition_value(nominal, key))
+        )
+        if replaced:
+            groups.setdefault(replaced, []).append(Path(trace.path).name)
+    for replaced, names in groups.items():
+        values = ", ".join(f"{key} = {mine:g} (the model: {theirs:g})" for key, mine, theirs in replaced)
+        print(
+            f"sma-gym diagnose: note: {', '.join(names)}: the sidecar's conditions are used instead of the "
+            f"model's ({nominal.name!r}): {values}",
+            file=sys.stderr,
+        )
+
+
+def _sidecar_model(traces: Sequence[Any], given: str | None = None) -> str | None:
+    """The nominal model the files' sidecars name (``"model"``): a preset or twin name
+    (:func:`sma_gym.model.model_names`). Files that name different models, or a name that
+    is not a model, are refused unless ``--model`` (``given``) is, which is used instead."""
     from sma_gym.model import model_names
 
     named = {str(t.path): t.conditions["model"] for t in traces if "model" in t.conditions}
@@ -160,9 +195,11 @@ def _sidecar_model(traces: Sequence[Any]) -> str | None:
         return None
     for path, name in named.items():
         if name not in model_names():
+            if given is not None:
+                return name  # --model decides; the caller notes the sidecar's name beside it
             raise ValueError(
-                f"{path}: sidecar 'model' = {name!r}: expected a model name ({', '.join(model_names())}); a free-text "
-                "description of the actuator goes into 'notes'"
+                f"{path}: sidecar 'model' = {name!r}: expected a model name ({', '.join(model_names())}); give "
+                "a model file with --model (a free-text description of the actuator goes into 'notes')"
             )
     if len(set(named.values())) > 1:
         shown = "; ".join(f"{path}: {name!r}" for path, name in named.items())

@@ -1145,6 +1145,11 @@ def test_a_sidecar_model_is_the_nominal_model_or_refused(tmp_path, capsys, monke
     side.write_text(json.dumps({**conditions, "model": "Flexinol 0.5 mm"}))
     assert main(["diagnose", str(csv), "--out", str(tmp_path / "d")]) == 2
     assert "sidecar 'model' = 'Flexinol 0.5 mm': expected a model name" in capsys.readouterr().err
+    # ... unless --model is given, which decides (it was refused all the same; a new user's trial).
+    with pytest.raises(Stop):
+        main(["diagnose", str(csv), "--out", str(tmp_path / "d"), "--model", "wire-0.2mm"])
+    assert "--model 'wire-0.2mm' is used; the sidecars name 'Flexinol 0.5 mm'" in capsys.readouterr().err
+    used.clear()
     side.write_text(json.dumps({**conditions, "model": "wire-0.5mm"}))
     with pytest.raises(Stop):
         main(["diagnose", str(csv), "--out", str(tmp_path / "d")])
@@ -2496,3 +2501,47 @@ def test_a_quoted_home_folder_in_a_commands_paths_is_the_home_folder(tmp_path, m
     argv = ["diagnose", "~/x/s.csv", "--out", "~/d", "--max-rounds", "1", "--effects", "sensor_lag", "--threads", "1"]
     assert main(argv) == 0
     assert (home / "d" / "diagnosis.json").exists() and not (elsewhere / "~").exists()
+
+
+def test_diagnose_says_before_the_work_that_it_starts_from_the_default_model_and_whose_conditions_it_uses(
+    tmp_path, capsys, monkeypatch
+):
+    """Files of a 0.25 mm wire at 12 V diagnosed without --model named wrong effects with
+    confidence, and the note on the default model came only after an unexplained verdict;
+    a sidecar's conditions that replace the model's were said only in the finished report
+    (a new user's trial)."""
+    import sma_gym.diagnosis.workflow
+    from sma_gym.cli import main
+    from sma_gym.model import ModelConfig
+
+    monkeypatch.setattr(sma_gym.diagnosis.workflow, "diagnose", lambda *a, **k: (_ for _ in ()).throw(KeyError))
+    ModelConfig().with_actuator(**{"wire.diameter_m": 0.25e-3, "driver.supply_voltage_v": 12.0}).save(
+        str(tmp_path / "my wire.json")
+    )
+    assert (
+        main(["synth", "--out", str(tmp_path / "w.csv"), "--model", str(tmp_path / "my wire.json"), "--duration", "7"])
+        == 0
+    )
+    # The command synth suggests is one a shell runs as it is (the space was not quoted).
+    assert f"sma-gym diagnose {tmp_path / 'w.csv'} --model '{tmp_path / 'my wire.json'}'" in capsys.readouterr().err
+    with pytest.raises(KeyError):
+        main(["diagnose", str(tmp_path / "w.csv"), "--out", str(tmp_path / "d")])
+    err = capsys.readouterr().err
+    assert "no --model, and no sidecar names one: the nominal model is the default 'standard'" in err
+    assert (
+        "w.csv: the sidecar's conditions are used instead of the model's ('standard'): supply_voltage_v = 12 (the model: 10), wire_diameter_m = 0.00025 (the model: 0.0003)"
+        in err
+    )
+    with pytest.raises(KeyError):
+        main(
+            [
+                "diagnose",
+                str(tmp_path / "w.csv"),
+                "--out",
+                str(tmp_path / "d"),
+                "--model",
+                str(tmp_path / "my wire.json"),
+            ]
+        )
+    err = capsys.readouterr().err
+    assert "no --model" not in err and "instead of the model's" not in err

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import os
+import shlex
 import shutil
 import sys
 from collections.abc import Mapping
@@ -436,7 +437,9 @@ def main(args) -> int:
     if named is None:
         print(
             f"sma-gym synth: note: the sidecar names no model ({args.model!r} is a file, not a preset or twin name): "
-            f"diagnose {csv_path} with --model {args.model}, or it starts from the standard wire",
+            # Quoted as a shell needs them (a path with a space broke the command copied).
+            f"sma-gym diagnose {shlex.quote(str(csv_path))} --model {shlex.quote(str(args.model))}, or it starts "
+            "from the standard wire",
             file=sys.stderr,
         )
     return 0
