@@ -672,7 +672,7 @@ def distinct_condition(results: Results, condition: str, model: Any) -> str:
 def table_6_1_condition(model: Any) -> str:
     """The condition Table 6.1 on ``model`` is recorded under: ``"standard"`` for the report's
     standard model (given by that name or as None), else ``"model <name>"``."""
-    return "standard" if _is_standard(model) else f"model {_model_label(model)}"
+    return "standard" if is_standard(model) else f"model {_model_label(model)}"
 
 
 def self_sensing_condition(model: Any) -> str:
@@ -681,7 +681,7 @@ def self_sensing_condition(model: Any) -> str:
     return "self-sensing" if model == SELF_SENSING_MODEL else f"self-sensing, {table_6_1_condition(model)}"
 
 
-def _is_standard(model: Any) -> bool:
+def is_standard(model: Any) -> bool:
     """The report's standard model: by that name, as None, or as a configuration equal to it."""
     if model is None:
         return True
@@ -1036,7 +1036,7 @@ def bank_baselines(scheme: str, quick: bool = False) -> list[PolicyEntry]:
 def bank_tracking_label(n: int, scheme: str, model: Any = "standard") -> str:
     """The condition bank tracking is recorded under; names the model unless it is the standard one."""
     label = f"{n} actuators, {scheme.replace('_', ' ')}"
-    return label if _is_standard(model) else f"{label}, model {_model_label(model)}"
+    return label if is_standard(model) else f"{label}, model {_model_label(model)}"
 
 
 def run_bank_tracking(
@@ -1124,7 +1124,7 @@ def require_model_experiments(model: Any, experiments: Sequence[str], name: str 
         load_model(model)
     except (OSError, ValueError) as err:
         raise ValueError(f"{shown}: {err}") from err
-    if _is_standard(model):
+    if is_standard(model):
         return False
     chapters = [e for e in experiments if e not in MODEL_EXPERIMENTS]
     if chapters:
@@ -1166,7 +1166,7 @@ def evaluate(
     bank_agents = [a for a in agents if scored_in("9", a.env_id)]
     # The report's conditions are its actuator's: an agent trained on another model is
     # scored on that model (Table 6.1 beside the baselines there), not on the report's.
-    tracking_agents = [agent_entry(a) for a in tracking if _is_standard(trained_model(a))]
+    tracking_agents = [agent_entry(a) for a in tracking if is_standard(trained_model(a))]
     base = list(baselines) if baselines is not None else default_entries()
     sensing_labels: list[str] = []
     if "self-sensing" in experiments:
@@ -1179,7 +1179,7 @@ def evaluate(
                 base + [agent_entry(a) for a in group], results, seeds, condition=condition, model=table_model
             )
     for a in tracking:
-        if not _is_standard(trained_model(a)) and {"7", "8"} & set(experiments):
+        if not is_standard(trained_model(a)) and {"7", "8"} & set(experiments):
             results.notes.append(
                 f"{a.name} trained on another model than the report's standard wire ({table_6_1_condition(trained_model(a))}): "
                 "chapters 7 and 8 run the report's wire under its conditions, so they do not score it; its Table 6.1 is "
@@ -1266,6 +1266,6 @@ def _by_model(agents: Sequence[AgentPolicy], default: Any = "standard") -> list[
 def _model_key(model: Any) -> str:
     """One key per actuator however it is given: a name, a file of it (a twin and its copy
     were two actuators, so the baselines ran, and were tabled, twice) or a configuration."""
-    if _is_standard(model):
+    if is_standard(model):
         return "standard"  # however given: one group, one Table 6.1 beside the report's
     return json.dumps(load_model(model).to_dict(), sort_keys=True)

@@ -517,3 +517,27 @@ def test_the_validation_record_is_written_beside_and_renamed_into_place(tmp_path
     assert written and all(Path(p).name.startswith(".evaluations.tmp") for p in written)
     assert [p.name for p in folder.iterdir()] == ["evaluations.npz"]
     assert len(np.load(folder / "evaluations.npz")["timesteps"]) == 2
+
+
+def test_a_robustness_agent_trained_on_a_model_of_the_users_is_scored_on_it(tmp_path):
+    """results.md scored it on the report's wire under chapter 7's conditions, labelled
+    "standard", whatever its card's model (a new user's trial)."""
+    from types import SimpleNamespace
+
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    from sma_gym import preset
+    from sma_gym_agents import PolicyCard
+    from sma_gym_agents.training.compare import GOALS, ROBUST, compare
+
+    mine = preset("standard").with_changes(**{"mechanism.spring_stiffness_n_m": 180.0}, name="mine-soft-spring")
+    env = gym.make("sma_gym:SMARobust-v0", model=mine)
+    PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu").save(tmp_path / "best_model.zip")
+    PolicyCard(algo="PPO", env_id=ROBUST, name="mine", env_kwargs={"model": mine}).save(tmp_path / "best_model.zip")
+    run = SimpleNamespace(env_id=ROBUST, quick=True, algo="ppo", env_kwargs={"model": mine})
+    text, goals = compare(run, tmp_path)
+    rows = [line for line in text.splitlines() if line.startswith("| ") and "policy" not in line]
+    assert rows and all("| model mine-soft-spring |" in row for row in rows), rows
+    assert "scored on that model as given" in text and "standard" not in "".join(rows)
+    assert set(goals) == {g.name for g in GOALS[ROBUST]}
