@@ -562,6 +562,14 @@ def test_an_agent_trained_on_another_actuator_is_scored_on_it_beside_the_baselin
     results = evaluate([agent], ["6.1"], seeds=(0,), baselines=[baseline(PID)], model=tmp_path / "mine.json")
     assert results.distinct("6.1", "condition") == [f"model {tmp_path / 'mine.json'}"]
     assert results.distinct("6.1") == ["PID", "mine"]
+    assert not results.notes
+    # Asked for another actuator, the agent is still scored on its own, and the notes say so.
+    results = evaluate([agent], ["6.1"], seeds=(0,), baselines=[baseline(PID)], model="wire-0.5mm")
+    assert results.distinct("6.1", "condition") == ["model wire-0.5mm", "model mine-0.2mm-7v"]
+    assert results.notes == [
+        "mine trained on mine-0.2mm-7v, not on wire-0.5mm: it is scored on the model it trained on, beside the "
+        "baselines there, not on the one asked for"
+    ]
 
 
 def test_the_reports_step_and_sine_run_at_the_same_fractions_of_a_shorter_actuators_stroke():
