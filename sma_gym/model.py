@@ -95,7 +95,14 @@ class ModelConfig:
         if not isinstance(data, Mapping):
             raise ValueError(f"{source}: expected a JSON object, got {type(data).__name__}")
         if data.get("format") != FORMAT_NAME:
-            raise ValueError(f"{source}: 'format' = {data.get('format')!r}: expected {FORMAT_NAME!r}")
+            # A measured file's sidecar given as a model said only this (a new user's trial).
+            hint = (
+                " (a model file written by ModelConfig.save or sma-gym diagnose starts with it; a measured file's "
+                "sidecar of conditions is not a model)"
+                if "format" not in data
+                else ""
+            )
+            raise ValueError(f"{source}: 'format' = {data.get('format')!r}: expected {FORMAT_NAME!r}{hint}")
         if data.get("version") != FORMAT_VERSION or isinstance(data.get("version"), bool):  # true == 1
             raise ValueError(f"{source}: 'version' = {data.get('version')!r}: expected {FORMAT_VERSION}")
         unknown = sorted(set(data) - set(FILE_KEYS))

@@ -396,3 +396,23 @@ def test_a_quantised_reading_has_its_rounding_as_noise_and_a_stuck_one_is_refuse
     require_diagnosable([MeasuredTrace("v.csv", t, duty, x, wire_voltage=volts)])
     still = np.where(t > 1.0, 2e-4, 0.0)
     require_diagnosable([MeasuredTrace("warm.csv", t, duty, still, current=np.where(duty > 0, 0.4, np.nan))])
+
+
+def test_a_model_file_named_like_the_data_is_named_as_such_not_as_a_bad_sidecar(tmp_path):
+    """bench2.json (a model) beside bench2.csv was read as its sidecar and reported as five
+    unknown keys; a sidecar given as the model said only "'format' = None" (a new user's trial)."""
+    from sma_gym.diagnosis.synth import SynthSpec
+    from sma_gym.diagnosis.synth import write as write_synth
+    from sma_gym.model import ModelConfig, load_model
+
+    path, _ = write_synth(SynthSpec(ModelConfig(), excitation="steps", duration_s=2.0, seed=1), tmp_path / "b.csv")
+    (tmp_path / "b.csv.json").rename(tmp_path / "conditions.json")
+    ModelConfig().save(str(tmp_path / "b.json"))
+    with pytest.raises(MeasuredDataError) as err:
+        load_trace(path)
+    assert "b.json: a model file (format 'sma-gym-model'), read as the sidecar of b.csv because of its name" in str(
+        err.value
+    )
+    assert "unknown key" not in str(err.value)
+    with pytest.raises(ValueError, match="a measured file's sidecar of conditions is not a model"):
+        load_model(tmp_path / "conditions.json")

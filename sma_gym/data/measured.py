@@ -541,6 +541,13 @@ def _read_sidecar(p: Path) -> tuple[dict[str, Any], list[str]]:
         except ValueError as err:
             problems.append(str(err))
             raw = {}
+        if raw.get("format") == "sma-gym-model":
+            # A model file that shares the data's name (bench2.json beside bench2.csv) was
+            # reported as five unknown sidecar keys (a new user's trial).
+            return conditions, [
+                f"{side}: a model file (format 'sma-gym-model'), read as the sidecar of {p.name} because of its name "
+                f"(<stem>.json); rename the model file, or write the conditions into {p.name}.json, which is read first"
+            ]
         for key, value in raw.items():
             if key in SIDECAR_KEYS:
                 b = parameter_bound(SIDECAR_KEYS[key])
