@@ -71,6 +71,12 @@ def _diagnose(args: argparse.Namespace) -> int:
     from sma_gym.effects import EFFECTS
     from sma_gym.model import load_model
 
+    if not args.files:
+        took = f": --heldout took every name after it ({' '.join(args.heldout)})" if args.heldout else ""
+        raise ValueError(
+            f"no files to fit{took}; expected the measured files first, e.g. sma-gym diagnose fit1.csv fit2.csv "
+            "--heldout held.csv --out DIR"
+        )
     require_max_rounds("--max-rounds", args.max_rounds)
     if args.threads is not None:
         from sma_gym.diagnosis.fitting import require_threads
@@ -385,7 +391,9 @@ def _bench_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _diagnose_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("files", nargs="+", help="measured traces to fit (CSV, see docs/diagnosis.md: measured data)")
+    # "*", checked in _diagnose: with "+" a --heldout given first took every name, and
+    # argparse said only that files were required (a new user's trial).
+    p.add_argument("files", nargs="*", help="measured traces to fit (CSV, see docs/diagnosis.md: measured data)")
     p.add_argument(
         "--heldout",
         nargs="+",

@@ -2545,3 +2545,15 @@ def test_diagnose_says_before_the_work_that_it_starts_from_the_default_model_and
         )
     err = capsys.readouterr().err
     assert "no --model" not in err and "instead of the model's" not in err
+
+
+def test_diagnose_without_fit_files_says_heldout_took_them(tmp_path, capsys):
+    """``diagnose --heldout held.csv fit.csv`` gave argparse's "the following arguments are
+    required: files" (a new user's trial)."""
+    from sma_gym.cli import main
+
+    assert main(["diagnose", "--heldout", "held.csv", "fit.csv", "--out", str(tmp_path / "d")]) == 2
+    assert "no files to fit: --heldout took every name after it (held.csv fit.csv)" in capsys.readouterr().err
+    assert main(["diagnose", "--out", str(tmp_path / "d")]) == 2
+    assert "no files to fit; expected the measured files first" in capsys.readouterr().err
+    assert not (tmp_path / "d").exists()

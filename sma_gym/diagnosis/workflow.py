@@ -176,7 +176,11 @@ MAX_FORM_PAIRS = 2
 """Most pairs a round refits in their other combinations of forms (``_pair_forms``; each is
 three more fits: every effect of the library has two forms)."""
 NEEDS_ELECTRICAL = {
-    "supply_sag": "a voltage or current measurement: on position data alone a supply sag and the wire's resistivity both only set the heating power",
+    # The rival named beside it is the best other candidate, not necessarily the
+    # resistivity: the text said only that, beside a latent heat (a new user's trial).
+    "supply_sag": "a voltage or current measurement: on position data alone a supply sag shows only as less heating "
+    "power, which the wire's resistivity and the other candidates named change too (however much better it fits, "
+    "see the candidates' table)",
 }
 """Effects whose only signature on the position is the heating power, which the refitted
 resistivity level also sets: on position-only data they are named only as ambiguous, with
