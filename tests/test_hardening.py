@@ -2557,3 +2557,14 @@ def test_diagnose_without_fit_files_says_heldout_took_them(tmp_path, capsys):
     assert main(["diagnose", "--out", str(tmp_path / "d")]) == 2
     assert "no files to fit; expected the measured files first" in capsys.readouterr().err
     assert not (tmp_path / "d").exists()
+
+
+def test_synth_says_a_pure_convection_scale_is_the_refits_own_parameter(tmp_path, capsys):
+    """``--effect convection_change:scale=1.3`` is labelled as that effect, and diagnose
+    answered "none" with the scale in its refit (a new user's trial): synth says why."""
+    from sma_gym.cli import main
+
+    for effect, said in (("convection_change:scale=1.3", True), ("convection_change", False)):
+        out = tmp_path / f"{said}.csv"
+        assert main(["synth", "--out", str(out), "--effect", effect, "--duration", "7"]) == 0
+        assert ("is a pure scale of the convection" in capsys.readouterr().err) is said

@@ -434,6 +434,17 @@ def main(args) -> int:
         model_source=str(args.model),
     )
     print(f"wrote {csv_path} (+ sidecar) and labels {labels_path}")
+    hidden = spec.truth().effects.get("convection_change") if name == "convection_change" else None
+    if hidden is not None and hidden.form == "default" and hidden.values["h1_w_m2_k2"] == 0.0:
+        # Its labels name the effect, and diagnose answered "none" with the scale right in
+        # its refit (a new user's trial): the two cannot be told apart by construction.
+        print(
+            f"sma-gym synth: note: convection_change with scale = {hidden.values['scale']:g} alone is a pure scale "
+            "of the convection, which every diagnosis refits as the nominal model's own convection_scale: it is "
+            "found in that refit (verdict 'none'), never as this effect; give h1_w_m2_k2 or --form power for a "
+            "changed convection law",
+            file=sys.stderr,
+        )
     if named is None:
         print(
             f"sma-gym synth: note: the sidecar names no model ({args.model!r} is a file, not a preset or twin name): "
