@@ -122,8 +122,8 @@ def _evaluate_arguments(p: argparse.ArgumentParser) -> None:
         "--model",
         default=None,
         help="the actuator Table 6.1 (and self-sensing) run on instead of the report's wire: a preset or twin "
-        "name or a model JSON file, e.g. the corrected_model.json of sma-gym diagnose; chapters 7-9 stay the "
-        "report's",
+        "name or a model JSON file, e.g. the corrected_model.json of sma-gym diagnose; chapters 7-9 are the "
+        "report's conditions of its own wire and are refused with it",
     )
     p.add_argument("--seeds", type=int, default=3, help="seeds per run (sensor noise differs); default 3")
     p.add_argument(

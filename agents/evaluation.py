@@ -1181,14 +1181,18 @@ def evaluate(
     if model is not None:
         # Asked for one actuator, an agent trained on another is scored on its own: said, as
         # a second table beside the first read as the agent's result there (a new user's trial).
-        asked = _model_key(model if own_model else "standard")
-        for a in tracking + sensing:
-            if _model_key(trained_model(a)) != asked:
-                results.notes.append(
-                    f"{a.name} trained on {table_6_1_condition(trained_model(a)).removeprefix('model ')}, not on "
-                    f"{table_6_1_condition(model).removeprefix('model ')}: it is scored on the model it trained on, "
-                    "beside the baselines there, not on the one asked for"
-                )
+        for scored, experiment, asked in (
+            (tracking, "6.1", model if own_model else "standard"),
+            (sensing, "self-sensing", model if own_model else SELF_SENSING_MODEL),
+        ):
+            if experiment not in experiments:
+                continue  # the agent is not run at all (the chapters say so where they skip it)
+            for a in scored:
+                if _model_key(trained_model(a)) != _model_key(asked):
+                    results.notes.append(
+                        f"{a.name} trained on {_model_label(trained_model(a))}, not on {_model_label(asked)}: it is "
+                        "scored on the model it trained on, beside the baselines there, not on the one asked for"
+                    )
     for a in tracking:
         if not is_standard(trained_model(a)) and {"7", "8"} & set(experiments):
             results.notes.append(

@@ -72,7 +72,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     from sma_gym.model import load_model
 
     if not args.files:
-        took = f": --heldout took every name after it ({' '.join(args.heldout)})" if args.heldout else ""
+        took = f": --heldout took every name after it ({' '.join(args.heldout)})" if len(args.heldout or ()) > 1 else ""
         raise ValueError(
             f"no files to fit{took}; expected the measured files first, e.g. sma-gym diagnose fit1.csv fit2.csv "
             "--heldout held.csv --out DIR"
@@ -208,6 +208,8 @@ def _sidecar_model(traces: Sequence[Any], given: str | None = None) -> str | Non
                 "a model file with --model (a free-text description of the actuator goes into 'notes')"
             )
     if len(set(named.values())) > 1:
+        if given is not None:
+            return next(iter(named.values()))  # --model decides (the caller notes what the sidecars name)
         shown = "; ".join(f"{path}: {name!r}" for path, name in named.items())
         raise ValueError(f"the sidecars name different models ({shown}): expected one, or give --model")
     return next(iter(named.values()))

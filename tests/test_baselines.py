@@ -641,3 +641,23 @@ def test_two_actuators_that_share_a_name_get_a_table_each_and_a_chapter_that_ski
     assert len(results.notes) == 2 and all("chapters 7 and 8" in n and "model mine" in n for n in results.notes)
     # The references were not the report's 8 mm: the table names the levels it ran.
     assert f"a step to {8 * results.scales['model mine']:.2f} mm" in table_6_1_markdown(results, "model mine")
+
+
+def test_evaluate_notes_an_agent_scored_on_another_model_only_where_it_is_run_and_on_another_one(monkeypatch):
+    """With ``model=``, the note that an agent is scored on its own model was written for a
+    self-sensing agent on its own (fan) model, and for an agent no experiment ran (a review)."""
+    from sma_gym_agents import evaluation as ev
+    from sma_gym_agents.trained import AgentPolicy
+
+    monkeypatch.setattr(ev, "run_table_6_1", lambda *a, **k: None)
+    monkeypatch.setattr(ev, "run_chapter_7", lambda *a, **k: None)
+    sensing = AgentPolicy(model=None, name="SS", env_id="SMASelfSensing-v0", env_kwargs={})
+    tracking = AgentPolicy(model=None, name="TR", env_id="SMATracking-v0", env_kwargs={"model": "wire-0.5mm"})
+    pid = [ev.baseline("PID")]
+    notes = ev.evaluate([sensing, tracking], ["6.1", "self-sensing"], seeds=(0,), model="standard", baselines=pid).notes
+    assert notes == [
+        "TR trained on wire-0.5mm, not on standard: it is scored on the model it trained on, beside the baselines "
+        "there, not on the one asked for"
+    ]
+    notes = ev.evaluate([tracking], ["7"], seeds=(0,), model="standard", baselines=pid).notes
+    assert not any("scored on the model it trained on" in n for n in notes)

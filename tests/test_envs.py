@@ -872,9 +872,27 @@ def test_overheating_on_purpose_never_pays_and_costs_the_same_in_every_env():
     assert penalty <= -1000.0
     # Worse than any registered episode can be without it: 1000 steps a full stroke off.
     assert total < -1000.0
-    # A bank's reward is the mean over its actuators: each one that overheats costs it whole.
-    bank = gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=2, model="bench-0.5mm-ht").unwrapped
+    # A bank's reward is the mean over its actuators: each one that overheats costs it whole,
+    # and its own reward (a bank agent's per actuator) carries it once, as a single env's.
+    bank = gym.make("sma_gym:SMAMultiplexed-v0", n_actuators=4, model="bench-0.5mm-ht").unwrapped
     bank.reset(seed=0)
-    while not bank.step(np.array([1.0, -1.0], np.float32))[2]:
-        pass
-    assert bank.actuator_rewards[0] < 2 * -1000.0 < -1.0 < bank.actuator_rewards[1]
+    while True:
+        _, bank_reward, ended, _, _ = bank.step(np.array([1.0, -1.0, -1.0, -1.0], np.float32))
+        if ended:
+            break
+    own = bank.actuator_rewards
+    assert -1002.0 < own[0] < -1000.0 < -1.0 < own[1:].min()
+    assert bank_reward == pytest.approx(own.mean() + 3 * -1000.0 / 4, rel=1e-9)  # energy_weight 0
+    vec = gym.make_vec(
+        "sma_gym:SMAMultiplexed-v0",
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        n_actuators=4,
+        model="bench-0.5mm-ht",
+    )
+    vec.reset(seed=0)
+    while True:
+        _, rewards, ended, _, _ = vec.step(np.tile(np.array([1.0, -1.0, -1.0, -1.0], np.float32), (2, 1)))
+        if ended[0]:
+            break
+    assert rewards[0] == pytest.approx(bank_reward, rel=1e-12)

@@ -1149,6 +1149,14 @@ def test_a_sidecar_model_is_the_nominal_model_or_refused(tmp_path, capsys, monke
     with pytest.raises(Stop):
         main(["diagnose", str(csv), "--out", str(tmp_path / "d"), "--model", "wire-0.2mm"])
     assert "--model 'wire-0.2mm' is used; the sidecars name 'Flexinol 0.5 mm'" in capsys.readouterr().err
+    # Two sidecars that name different models: --model decides there too.
+    other = _synth(tmp_path, "o.csv", "--seed", "1")
+    (tmp_path / "o.csv.json").write_text(json.dumps({**conditions, "model": "wire-0.3mm"}))
+    side.write_text(json.dumps({**conditions, "model": "wire-0.5mm"}))
+    assert main(["diagnose", str(csv), "--heldout", str(other), "--out", str(tmp_path / "d")]) == 2
+    assert "the sidecars name different models" in capsys.readouterr().err
+    with pytest.raises(Stop):
+        main(["diagnose", str(csv), "--heldout", str(other), "--out", str(tmp_path / "d"), "--model", "wire-0.2mm"])
     used.clear()
     side.write_text(json.dumps({**conditions, "model": "wire-0.5mm"}))
     with pytest.raises(Stop):
@@ -2556,6 +2564,8 @@ def test_diagnose_without_fit_files_says_heldout_took_them(tmp_path, capsys):
     assert "no files to fit: --heldout took every name after it (held.csv fit.csv)" in capsys.readouterr().err
     assert main(["diagnose", "--out", str(tmp_path / "d")]) == 2
     assert "no files to fit; expected the measured files first" in capsys.readouterr().err
+    assert main(["diagnose", "--out", str(tmp_path / "d"), "--heldout", "held.csv"]) == 2
+    assert "no files to fit; expected" in capsys.readouterr().err  # it took nothing of the user's
     assert not (tmp_path / "d").exists()
 
 

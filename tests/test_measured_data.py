@@ -413,6 +413,10 @@ def test_a_model_file_named_like_the_data_is_named_as_such_not_as_a_bad_sidecar(
     assert "b.json: a model file (format 'sma-gym-model'), read as the sidecar of b.csv because of its name" in str(
         err.value
     )
-    assert "unknown key" not in str(err.value)
+    assert "unknown key" not in str(err.value) and "or write the conditions into b.csv.json" in str(err.value)
+    # The model saved where the sidecar goes: only renaming it helps.
+    (tmp_path / "b.json").rename(tmp_path / "b.csv.json")
+    with pytest.raises(MeasuredDataError, match="because of its name; rename the model file \\(a sidecar holds"):
+        load_trace(path)
     with pytest.raises(ValueError, match="a measured file's sidecar of conditions is not a model"):
         load_model(tmp_path / "conditions.json")

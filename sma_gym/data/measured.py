@@ -544,9 +544,14 @@ def _read_sidecar(p: Path) -> tuple[dict[str, Any], list[str]]:
         if raw.get("format") == "sma-gym-model":
             # A model file that shares the data's name (bench2.json beside bench2.csv) was
             # reported as five unknown sidecar keys (a new user's trial).
+            where = (
+                "rename the model file (a sidecar holds the file's conditions)"
+                if side.name == f"{p.name}.json"
+                else f"rename the model file, or write the conditions into {p.name}.json, which is read first"
+            )
             return conditions, [
-                f"{side}: a model file (format 'sma-gym-model'), read as the sidecar of {p.name} because of its name "
-                f"(<stem>.json); rename the model file, or write the conditions into {p.name}.json, which is read first"
+                f"{side}: a model file (format 'sma-gym-model'), read as the sidecar of {p.name} because of its "
+                f"name; {where}"
             ]
         for key, value in raw.items():
             if key in SIDECAR_KEYS:

@@ -72,8 +72,9 @@ REWARD = f"""
     position, whatever the agent sees. The step on which a wire passes `overheat_limit_c`
     also gets the overheat penalty, *-{EPISODE_STEPS} (1 + energy_weight P_el / P_full)*: a whole
     registered episode a full stroke off the reference at the power that overheated it
-    (`task.overheat_penalty`; in a bank, for each actuator that overheats, as the bank's
-    reward is their mean), so that ending an episode early never pays: without it, holding
+    (`task.overheat_penalty`; a bank's reward, the mean over its actuators, carries the
+    whole penalty of each one that overheats, and that actuator's own reward carries it
+    once: `task.bank_rewards`), so that ending an episode early never pays: without it, holding
     duty 1 on a wire without an end-of-travel cut (the bench twins) overheated it in 1.2 s
     for a better return than the report's controllers tracking.
     """

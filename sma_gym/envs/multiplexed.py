@@ -174,7 +174,7 @@ class SMAMultiplexedEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
             pwm_mode="resolved",
             multiplexer=self.multiplexer,
         )
-        self.task = self.settings.task_state(self.n, task.OBS_POSITION, per_reward=self.n)
+        self.task = self.settings.task_state(self.n, task.OBS_POSITION)
         low, high = task.bounds(task.OBS_POSITION)
         self.features_per_actuator = len(low)
         self.observation_space = spaces.Box(np.tile(low, self.n), np.tile(high, self.n), dtype=np.float32)
@@ -272,7 +272,8 @@ class SMAMultiplexedEnv(MadeWith, EpisodeRendering, ImportableSpec, gym.Env):
         self._step_reward[:] = self._reward
         if self.render_mode is not None:
             self._rendered_step()
-        return self._obs.reshape(-1).copy(), float(self._reward.mean()), bool(self._term.any()), False, self._info()
+        reward = float(task.bank_rewards(self._reward, self.task.penalty))
+        return self._obs.reshape(-1).copy(), reward, bool(self._term.any()), False, self._info()
 
     def _info(self) -> dict[str, Any]:
         info = self.task.info(self.sim, self._ref)
@@ -381,7 +382,7 @@ class SMAMultiplexedVectorEnv(MadeWith, EpisodeLimit, SubEnvAccess, VectorEnv):
             pwm_mode="resolved",
             pwm_slots=slots,
         )
-        self.task = self.settings.task_state(m * n, task.OBS_POSITION, per_reward=n)
+        self.task = self.settings.task_state(m * n, task.OBS_POSITION)
         self.single_observation_space = bank.observation_space
         self.single_action_space = bank.action_space
         self.observation_space = batch_space(self.single_observation_space, m)
@@ -500,7 +501,7 @@ class SMAMultiplexedVectorEnv(MadeWith, EpisodeLimit, SubEnvAccess, VectorEnv):
         self.task.last_duty[:] = self._duty[0]
         self._evaluate()
         self._steps += 1
-        reward = self._reward.reshape(m, n).mean(axis=1)
+        reward = task.bank_rewards(self._reward.reshape(m, n), self.task.penalty.reshape(m, n))
         terminated = self._term.reshape(m, n).any(axis=1)
         if restart.any():
             self._reset_banks(np.flatnonzero(restart), {})

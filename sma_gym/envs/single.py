@@ -220,12 +220,9 @@ class Settings:
                     del _USABLE_CONDITIONS[next(iter(_USABLE_CONDITIONS))]
         return settings
 
-    def task_state(self, n: int, observation: int, per_reward: int = 1) -> task.TaskState:
-        """Task data for n actuators with these settings; ``per_reward``: the actuators whose
-        mean is one reward (a bank's n), by which the overheat penalty is multiplied."""
-        return task.TaskState(
-            n, observation, self.energy_weight, self.overheat_limit_c, penalty_steps=task.EPISODE_STEPS * per_reward
-        )
+    def task_state(self, n: int, observation: int) -> task.TaskState:
+        """Task data for n actuators with these settings."""
+        return task.TaskState(n, observation, self.energy_weight, self.overheat_limit_c)
 
 
 def draw_actuator(

@@ -20,7 +20,8 @@ Reward (per actuator, per step)::
 with ``P_el`` the mean electrical power of the step and ``P_full = V^2 / R_cold`` the power
 at duty 1 into the cold wire. The hot (austenitic) wire's resistance is lower, so at duty 1
 the energy term reaches ``R_cold / R_hot`` times ``energy_weight``: up to 1.21 on the presets
-(measured at duty 1 from rest; 1.0 on ``bench-0.5mm-ht-datasheet``), not 1.
+(measured at duty 1 from rest; 1.0 on ``bench-0.5mm-ht-datasheet``), not 1. The step on
+which a wire passes the overheat limit adds :func:`overheat_penalty`.
 """
 
 from __future__ import annotations
@@ -205,21 +206,21 @@ class TaskState:
         observation: int,
         energy_weight: float,
         overheat_limit_c: float,
-        penalty_steps: float = EPISODE_STEPS,
     ):
         self.n = n
         self.observation = observation
         self.energy_weight = energy_weight
         self.overheat_limit_c = overheat_limit_c
-        self.penalty_steps = float(penalty_steps)
-        """Steps of :func:`overheat_penalty` (``EPISODE_STEPS``; times n where the env's reward
-        is the mean over n actuators, so that the mean carries the whole penalty)."""
         self.kind = np.zeros(n, dtype=np.int64)
         self.params = np.zeros((n, N_PARAMS))
         self.wp_t = np.full((n, N_WAYPOINTS), np.inf)
         self.wp_x = np.zeros((n, N_WAYPOINTS))
         self.held = np.zeros((n, 3))  # last valid R, I, V
         self.last_duty = np.zeros(n)
+        self.penalty = np.zeros(n)
+        """Each actuator's overheat penalty in its last reward (0 unless it overheated;
+        :func:`overheat_penalty`): a bank whose reward is the mean over its actuators adds
+        it back whole (:func:`bank_rewards`)."""
         self.references: list[Reference | None] = [None] * n
 
     def set_reference(self, i: int, ref: Reference) -> None:
@@ -274,7 +275,7 @@ class TaskState:
             self.last_duty,
             self.energy_weight,
             self.overheat_limit_c,
-            self.penalty_steps,
+            self.penalty,
             obs_out,
             reward_out,
             term_out,
@@ -317,7 +318,7 @@ def task_outputs(
     last_duty,
     energy_weight,
     overheat_c,
-    penalty_steps,
+    penalty_out,
     obs_out,
     reward_out,
     term_out,
@@ -371,16 +372,20 @@ def task_outputs(
         reward_out[j] = -abs(s[L.S_X] - r) / stroke - energy
         overheated = s[L.S_T] > overheat_c
         term_out[j] = overheated
-        if overheated:
-            reward_out[j] -= penalty_steps * (1.0 + energy)  # see overheat_penalty
+        penalty = -PENALTY_STEPS * (1.0 + energy) if overheated else 0.0  # overheat_penalty
+        penalty_out[i] = penalty
+        reward_out[j] += penalty
         ref_out[j] = r
 
 
-def overheat_penalty(power_ratio: float, energy_weight: float, penalty_steps: float = EPISODE_STEPS) -> float:
+PENALTY_STEPS = float(EPISODE_STEPS)
+"""Steps of :func:`overheat_penalty`: the registered episode's (:data:`~sma_gym.envs.EPISODE_STEPS`)."""
+
+
+def overheat_penalty(power_ratio: float, energy_weight: float) -> float:
     """The reward added on a step that ends the episode by overheating (negative): a whole
-    registered episode (``penalty_steps``, :data:`~sma_gym.envs.EPISODE_STEPS`) spent a full
-    stroke off the reference at the power that overheated the wire, i.e.
-    ``-penalty_steps * (1 + energy_weight * P_el / P_full)``.
+    registered episode (:data:`PENALTY_STEPS`) spent a full stroke off the reference at the
+    power that overheated the wire, i.e. ``-PENALTY_STEPS * (1 + energy_weight * P_el / P_full)``.
 
     Why: every step's reward is negative, so without it an episode that ends early pays.
     On a wire without an end-of-travel cut (the real bench's twins) holding duty 1 overheated
@@ -388,7 +393,16 @@ def overheat_penalty(power_ratio: float, energy_weight: float, penalty_steps: fl
     seeds of four (a new user's trial). With it no episode of the registered length or
     shorter is worse than overheating. ``power_ratio`` is ``P_el / P_full`` of that step.
     The compiled :func:`task_outputs` applies it; this is its definition for Python."""
-    return -penalty_steps * (1.0 + energy_weight * power_ratio)
+    return -PENALTY_STEPS * (1.0 + energy_weight * power_ratio)
+
+
+def bank_rewards(rewards: np.ndarray, penalties: np.ndarray) -> np.ndarray:
+    """Each bank's reward from its actuators' (last axis): their mean, plus the rest of each
+    overheat penalty, so that an actuator that overheats costs the bank the whole penalty
+    (the mean carried 1/n of it: 250 steps' worth on a bank of four), while each actuator's
+    own reward (``actuator_rewards``, a bank agent's per-actuator reward) carries it once."""
+    n = rewards.shape[-1]
+    return rewards.mean(axis=-1) + (n - 1) * penalties.mean(axis=-1)
 
 
 def warn_step_after_termination() -> None:

@@ -44,6 +44,11 @@ _MODES = {mode.value: mode for mode in AutoresetMode}
 
 BUILT_FROM = (
     "control_period_s",
+    # read-only on every env (MadeWith): refused here as the others are, with a ValueError
+    "model",
+    "reference",
+    "overheat_limit_c",
+    "pwm_mode",
     "settings",
     "sim",
     "task",
