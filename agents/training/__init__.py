@@ -25,7 +25,7 @@
 By default the agent is a residual on the report's controller (``agents/residual.py``: it
 corrects VSC3 + FF's duty, or the self-sensing PID's without a position sensor) and sees
 history features (``agents/history.py``: averages of its duty and the position over the
-wire's thermal time constants); README "Training" gives the measurements behind these
+wire's thermal time constants); docs/training.md gives the measurements behind these
 choices. The run folder (named at the end) gets:
 
 * ``best_model.zip`` (best on held-out validation references, by a periodic evaluation),

@@ -302,7 +302,7 @@ def _run_seed_process(argv: list[str], log: Path, threads: int, children: _Child
 def run_seed(options: list[str], seed: int, out: str | Path) -> dict[str, Any]:
     """Train one seed in this process (``train.py`` with ``options``, ``--seed`` and
     ``--out``) and return its goals (as ``goals.json`` records them): the function a
-    cluster engine (README "Training", Ray Tune) calls once per seed. ``ValueError`` on a
+    cluster engine (docs/training.md, Ray Tune) calls once per seed. ``ValueError`` on a
     bad option, as ``train.py`` exits 2."""
     from sma_gym_agents.training.run import train_and_compare
 
