@@ -200,13 +200,7 @@ class TaskState:
     """Per-actuator task data (references, held sensor readings, last duty) and the task's
     settings: which observation set, the energy weight and the overheat limit."""
 
-    def __init__(
-        self,
-        n: int,
-        observation: int,
-        energy_weight: float,
-        overheat_limit_c: float,
-    ):
+    def __init__(self, n: int, observation: int, energy_weight: float, overheat_limit_c: float):
         self.n = n
         self.observation = observation
         self.energy_weight = energy_weight
@@ -302,6 +296,25 @@ class TaskState:
         return info
 
 
+PENALTY_STEPS = float(EPISODE_STEPS)
+"""Steps of :func:`overheat_penalty`: the registered episode's (:data:`~sma_gym.envs.EPISODE_STEPS`)."""
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def overheat_penalty(power_ratio: float, energy_weight: float) -> float:
+    """The reward added on a step that ends the episode by overheating (negative): a whole
+    registered episode (:data:`PENALTY_STEPS`) spent a full stroke off the reference at the
+    power that overheated the wire, i.e. ``-PENALTY_STEPS * (1 + energy_weight * P_el / P_full)``.
+
+    Why: every step's reward is negative, so without it an episode that ends early pays.
+    On a wire without an end-of-travel cut (the real bench's twins) holding duty 1 overheated
+    it in 1.2 s for a return of -60 to -74, better than the report's controllers on three
+    seeds of four (a new user's trial). With it no episode of the registered length or
+    shorter is worse than overheating. ``power_ratio`` is ``P_el / P_full`` of that step.
+    Compiled: :func:`task_outputs` calls it, and Python may too."""
+    return -PENALTY_STEPS * (1.0 + energy_weight * power_ratio)
+
+
 # Without numba's reference counting (as core.kernel._advance; it allocates nothing): the
 # row views and the reference calls cost a pair of atomic updates each, about 7 % of a
 # single env's step.
@@ -372,28 +385,10 @@ def task_outputs(
         reward_out[j] = -abs(s[L.S_X] - r) / stroke - energy
         overheated = s[L.S_T] > overheat_c
         term_out[j] = overheated
-        penalty = -PENALTY_STEPS * (1.0 + energy) if overheated else 0.0  # overheat_penalty
+        penalty = overheat_penalty(s[L.S_POWER] / p_full, energy_weight) if overheated else 0.0
         penalty_out[i] = penalty
         reward_out[j] += penalty
         ref_out[j] = r
-
-
-PENALTY_STEPS = float(EPISODE_STEPS)
-"""Steps of :func:`overheat_penalty`: the registered episode's (:data:`~sma_gym.envs.EPISODE_STEPS`)."""
-
-
-def overheat_penalty(power_ratio: float, energy_weight: float) -> float:
-    """The reward added on a step that ends the episode by overheating (negative): a whole
-    registered episode (:data:`PENALTY_STEPS`) spent a full stroke off the reference at the
-    power that overheated the wire, i.e. ``-PENALTY_STEPS * (1 + energy_weight * P_el / P_full)``.
-
-    Why: every step's reward is negative, so without it an episode that ends early pays.
-    On a wire without an end-of-travel cut (the real bench's twins) holding duty 1 overheated
-    it in 1.2 s for a return of -60 to -74, better than the report's controllers on three
-    seeds of four (a new user's trial). With it no episode of the registered length or
-    shorter is worse than overheating. ``power_ratio`` is ``P_el / P_full`` of that step.
-    The compiled :func:`task_outputs` applies it; this is its definition for Python."""
-    return -PENALTY_STEPS * (1.0 + energy_weight * power_ratio)
 
 
 def bank_rewards(rewards: np.ndarray, penalties: np.ndarray) -> np.ndarray:
