@@ -23,6 +23,7 @@ from sma_gym.diagnosis.workflow import (
     HELDOUT_GAIN,
     HOLDOUT_FRACTION,
     LATER_ROUND_GAIN,
+    NOISE_STOP,
     SEPARATION_BLOCKS,
     SEPARATION_T,
     Diagnosis,
@@ -296,7 +297,7 @@ def _round_lines(result: Diagnosis) -> list[str]:
 
 
 def _uncertainty_caveat(result: Diagnosis) -> str:
-    """What the uncertainties are, and, where the held-out gap ends above 2x the noise, why
+    """What the uncertainties are, and, where the held-out gap ends above ``NOISE_STOP`` times the noise, why
     they understate how far a parameter may be from the actuator's (a user read a tight
     interval on a refit that ends at 20x the noise as the actuator's value)."""
     text = (
@@ -304,7 +305,7 @@ def _uncertainty_caveat(result: Diagnosis) -> str:
         "whose form differs from the actuator's is not in them."
     )
     gap = result.rounds[-1]["heldout_normalised_rms"] if result.rounds else math.nan
-    if math.isfinite(gap) and gap > 2.0:
+    if math.isfinite(gap) and gap > NOISE_STOP:
         text += (
             f" The held-out gap ends at {gap:.3g}x the noise, so the corrected model does not explain everything: "
             "a parameter may stand in for what it lacks and be further from the actuator's value than its "
