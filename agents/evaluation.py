@@ -1156,6 +1156,9 @@ def evaluate(
         if e not in EXPERIMENTS:
             raise ValueError(f"experiment = {e!r}: expected one of {', '.join(EXPERIMENTS)}")
     own_model = require_model_experiments(model, experiments)
+    # Where the baselines run Table 6.1 and the self-sensing comparison.
+    table_default = model if own_model else "standard"
+    sensing_default = model if own_model else SELF_SENSING_MODEL  # the report's has a fan; the user's as given
     results = Results()
 
     def scored_in(experiment: str, env_id: str) -> bool:
@@ -1173,7 +1176,7 @@ def evaluate(
         # Checked before any experiment runs (a bad choice failed only after the others).
         sensing_labels = [PID.label, with_feedforward(VSC3).label] if baselines is None else _report_labels(base)
     if "6.1" in experiments:
-        for table_model, group in _by_model(tracking, default=model if own_model else "standard"):
+        for table_model, group in _by_model(tracking, default=table_default):
             condition = distinct_condition(results, table_6_1_condition(table_model), table_model)
             run_table_6_1(
                 base + [agent_entry(a) for a in group], results, seeds, condition=condition, model=table_model
@@ -1181,10 +1184,7 @@ def evaluate(
     if model is not None:
         # Asked for one actuator, an agent trained on another is scored on its own: said, as
         # a second table beside the first read as the agent's result there (a new user's trial).
-        for scored, experiment, asked in (
-            (tracking, "6.1", model if own_model else "standard"),
-            (sensing, "self-sensing", model if own_model else SELF_SENSING_MODEL),
-        ):
+        for scored, experiment, asked in ((tracking, "6.1", table_default), (sensing, "self-sensing", sensing_default)):
             if experiment not in experiments:
                 continue  # the agent is not run at all (the chapters say so where they skip it)
             for a in scored:
@@ -1231,9 +1231,7 @@ def evaluate(
         # The report's self-sensing setup (§4.2): a fan; compared with the same controllers
         # reading the position sensor under the same conditions.
         with_sensor = [e for e in base if e.name in sensing_labels]
-        # On a model of the user's, its own conditions (no fan added).
-        default = model if own_model else SELF_SENSING_MODEL
-        for sensing_model, group in _by_model(sensing, default=default):
+        for sensing_model, group in _by_model(sensing, default=sensing_default):
             readers = [baseline(label, True) for label in sensing_labels]
             condition = distinct_condition(results, self_sensing_condition(sensing_model), sensing_model)
             entries = readers + [agent_entry(a) for a in group] + with_sensor
