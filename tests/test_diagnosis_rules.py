@@ -192,6 +192,25 @@ def test_a_supply_sag_is_named_only_where_voltage_or_current_was_measured(electr
         assert not any("supply_sag" in pair for pair in workflow._pairs_to_try(r, 0.10, electrical))
 
 
+def test_a_supply_sag_that_explains_position_only_data_to_the_noise_is_named():
+    """A new user's 0.8 ohm sag on position-only files, fitted to 0.7986 ohm and 0.96x the
+    noise held out (the refit 64x, the best other candidate 31x), was "ambiguous"; so were
+    both misses of the grid's seed 47 on our generator (1.01x, 0.96x). Short of the noise it
+    stays ambiguous (the test above): it may absorb a heating law of another form."""
+    held = HeldOut()
+    ref = candidate(held, "nominal refit", 0.0, smooth(0, 63.8))
+    sag = candidate(held, "supply_sag", -615.0, smooth(1, 0.957))
+    other = candidate(held, "latent_heat", -209.0, smooth(2, 31.2))
+    r = judge(held, ref, [sag, other], electrical=False)
+    assert r.verdict == "effect" and r.effect == "supply_sag"
+    # Within the noise but with a rival the held-out data cannot tell from it: ambiguous.
+    held = HeldOut()
+    ref = candidate(held, "nominal refit", 0.0, smooth(0, 63.8))
+    sag = candidate(held, "supply_sag", -615.0, smooth(1, 0.957))
+    twin = candidate(held, "latent_heat", -600.0, smooth(1, 0.96))
+    assert judge(held, ref, [sag, twin], electrical=False).verdict == "ambiguous"
+
+
 def test_the_resistivity_level_is_refitted_on_position_only_data_and_forms_reach_the_model():
     trace, _ = generate(SynthSpec(ModelConfig(), excitation="steps", duration_s=5.0, electrical=False, seed=1))
     data = fitting.prepare(trace, 1e-3)
