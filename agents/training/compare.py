@@ -175,6 +175,7 @@ def compare(run: RunConfig, out: Path) -> tuple[str, dict[str, Any]]:
         return summarise(run, results, agent.name, [(bank_tracking_label(n, scheme, model), "")])
     entries = _baselines(run.env_id, run.quick) + [agent_entry(agent)]
     model = trained_model(agent)
+    note = ""
     if run.env_id == ROBUST and not is_standard(model):
         # Trained around a model of the user's: scored on it as given (the chapter-7
         # conditions are the report's wire's; it was scored there, and labelled "standard",
@@ -183,15 +184,12 @@ def compare(run: RunConfig, out: Path) -> tuple[str, dict[str, Any]]:
         conditions = [(condition, model)]
         run_chapter_7(entries, results, seeds, conditions)
         scale = stroke_scale(model)
-        text, goals = summarise(run, results, agent.name, conditions, scale)
         note = (
             f"Trained on {condition.removeprefix('model ')}, not the report's wire: scored on that model as given; the "
             "chapter-7 conditions (a fan, 5 and 15 V, 0.2 and 0.5 mm wires) are the report's wire's, so the goals "
             "below are over this one condition."
         )
-        write_report(results, out / "evaluation")
-        return _with_note(text, note), goals
-    if run.env_id == ROBUST:
+    elif run.env_id == ROBUST:
         conditions = list(CHAPTER_7_CONDITIONS) if not run.quick else [CHAPTER_7_CONDITIONS[0]]
         run_chapter_7(entries, results, seeds, conditions)
         scale = 1.0  # the chapter-7 conditions: the report's wire, its stroke
@@ -202,7 +200,8 @@ def compare(run: RunConfig, out: Path) -> tuple[str, dict[str, Any]]:
         conditions = [(condition, "")]
         scale = stroke_scale(model)
     write_report(results, out / "evaluation")
-    return summarise(run, results, agent.name, conditions, scale)
+    text, goals = summarise(run, results, agent.name, conditions, scale)
+    return (_with_note(text, note) if note else text), goals
 
 
 def _with_note(text: str, note: str) -> str:

@@ -327,6 +327,9 @@ class MadeWith:
     settings: Settings
     task: task.TaskState
 
+    READ_ONLY: ClassVar[tuple[str, ...]] = ("control_period_s", "model", "reference", "overheat_limit_c", "pwm_mode")
+    """The settings that cannot be changed after make (the vector envs' ``set_attr`` refuses them too)."""
+
     model = _made_with("model", "The model the env was made with (a robust env's nominal one).")
     reference = _made_with(
         "reference", "The ``reference`` kwarg as made (names or dicts); the episode's own: reference_description()."

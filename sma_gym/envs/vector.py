@@ -43,12 +43,7 @@ _MODES = {mode.value: mode for mode in AutoresetMode}
 
 
 BUILT_FROM = (
-    "control_period_s",
-    # read-only on every env (MadeWith): refused here as the others are, with a ValueError
-    "model",
-    "reference",
-    "overheat_limit_c",
-    "pwm_mode",
+    *MadeWith.READ_ONLY,  # read-only on every env: refused here as the others are, with a ValueError
     "settings",
     "sim",
     "task",
