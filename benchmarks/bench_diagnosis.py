@@ -49,7 +49,8 @@ balanced grid). The nominal parameters are perturbed by 5 % as in the default mo
 
 An answer is *right* when the verdict names exactly the hidden effect ("none" for clean
 data); "ambiguous" naming the truth among its pair is not wrong, but not right either
-(counted apart); a *confident wrong name* is an "effect"/"effects" verdict naming an effect
+(counted apart), and so is "partial" naming it (effects found that close less than half of the
+held-out gap); a *confident wrong name* is an "effect"/"effects" verdict naming an effect
 that was not hidden.
 
     python benchmarks/bench_diagnosis.py --grid 24 [--seed 0] [--generator both]
@@ -63,7 +64,7 @@ stiffness (10 %), the transformation branches' temperature ranges (10 %), the am
 temperature (3 K), the martensite's Young's modulus (10 %) or the wire's diameter (3 %), each
 at -1, -0.5, +0.5 or +1 times that tolerance, on top of the 5 % perturbation, with the
 grid's excitations, sample rates and sensor sets. No library effect is hidden, so "none"
-is right (the refit absorbs it), "unexplained" and "ambiguous" are honest, and an
+is right (the refit absorbs it), "unexplained", "ambiguous" and "partial" are honest, and an
 "effect"/"effects" verdict is a confident wrong name: a datasheet tolerance blamed on an
 effect.
 
@@ -142,6 +143,8 @@ def answer_label(result: Diagnosis) -> str:
         return str(result.effect)
     if result.verdict == "ambiguous":
         return "ambiguous(" + "|".join(result.effect) + ")"
+    if result.verdict == "partial":
+        return "partial(" + "+".join(result.effect) + ")"  # effects found that leave most of the gap
     if result.verdict == "effects":
         return "effects(" + "+".join(result.effect) + ")"  # a hidden effect plus spurious ones
     return result.verdict
@@ -353,14 +356,16 @@ def classify(truth: str, verdict: str, named: Sequence[str]) -> str:
         return "right" if list(named) == [truth] else "confident_wrong"
     if verdict == "none" and truth == "none":
         return "right"
-    if verdict == "ambiguous" and truth in named:
+    if verdict in ("ambiguous", "partial") and truth in named:
+        # Named without confidence: among rivals, or as a partial explanation of the data.
         return "ambiguous_with_truth"
     return "miss"
 
 
 def named_effects(result: Diagnosis) -> list[str]:
-    """The effects a verdict names: those found for effect(s), the rivals for ambiguous, else none."""
-    if result.verdict in ("effect", "effects"):
+    """The effects a verdict names: those found for effect(s) and partial, the rivals for
+    ambiguous, else none."""
+    if result.verdict in ("effect", "effects", "partial"):
         return list(result.effects_found)
     if result.verdict == "ambiguous":
         return list(result.effect)
@@ -481,7 +486,7 @@ def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
             "detection": _detection(rs),
         }
     clean = [r for r in records if r["truth"] == "none"]
-    named = [r for r in clean if r["verdict"] in ("effect", "effects", "ambiguous")]
+    named = [r for r in clean if r["verdict"] in ("effect", "effects", "ambiguous", "partial")]
     unexplained = [r for r in clean if r["verdict"] == "unexplained"]
     # "Unexplained" is only a fault when the refit itself reaches the noise.
     unexplained_at_noise = [r for r in unexplained if (r.get("heldout_nominal_refit") or math.inf) <= NOISE_STOP]
@@ -748,7 +753,7 @@ def draw_datasheet(n: int, seed: int = 0) -> list[DatasheetCase]:
 
 
 def classify_clean(verdict: str) -> str:
-    """A clean case's answer: right ("none"), honest ("unexplained", "ambiguous": no name
+    """A clean case's answer: right ("none"), honest ("unexplained", "ambiguous", "partial": no name
     given with confidence) or a confident wrong name ("effect", "effects")."""
     if verdict == "none":
         return "right"
@@ -993,7 +998,7 @@ def classify_pair(truth: Sequence[str], verdict: str, named: Sequence[str]) -> s
         if any(name not in truth for name in named):
             return "confident_wrong"
         return "both" if set(named) == set(truth) else "one"
-    if verdict == "ambiguous" and any(name in truth for name in named):
+    if verdict in ("ambiguous", "partial") and any(name in truth for name in named):
         return "ambiguous"
     return "miss"
 
@@ -1214,7 +1219,7 @@ def grid_markdown(result: dict[str, Any]) -> str:
         (
             f"Confident wrong names: {s['confident_wrong']} of {s['cases']} ({_pct(s['confident_wrong_rate'])}, "
             f"95 % interval {_interval(s['confident_wrong_rate_ci95'])}). "
-            f"Clean cases: {s['clean_cases']}; named an effect (effect/effects/ambiguous) {s['clean_named_an_effect']}, "
+            f"Clean cases: {s['clean_cases']}; named an effect (effect/effects/ambiguous/partial) {s['clean_named_an_effect']}, "
             f"of which effect/effects {s['clean_effect_verdicts']}; unexplained {s['clean_unexplained']} "
             f"(with the refit at the noise, <= {NOISE_STOP:g}x: {s['clean_unexplained_with_refit_at_noise']}). "
             f"Median seconds per case: diagnosis {s['median_seconds_diagnose'] or math.nan:.0f} s, "
@@ -1229,7 +1234,7 @@ def grid_markdown(result: dict[str, Any]) -> str:
             "",
             (
                 f"{pg['cases']} cases: right {pg['right']} ({_pct(pg['accuracy'])}, 95 % interval {_interval(pg['accuracy_ci95'])}); "
-                f"ambiguous naming the truth "
+                f"ambiguous or partial naming the truth "
                 f"{pg['ambiguous_with_truth']}; confident wrong {pg['confident_wrong']} ({_pct(pg['confident_wrong_rate'])}); "
                 f"other misses {pg['miss']}. One effect hidden: {_pct(pg['one_effect_accuracy'])} right; "
                 f"clean: {_pct(pg['clean_accuracy'])} right."

@@ -131,7 +131,7 @@ def _diagnose(args: argparse.Namespace) -> int:
         )
         paths = write_outputs(result, out, fit, held, nominal)
     _print_diagnosis(result, paths, args.json)
-    if args.model is None and named is None and result.verdict == "unexplained":
+    if args.model is None and named is None and result.verdict in ("unexplained", "partial"):
         # The commonest cause on real data: the wrong actuator, not a missing effect.
         print(
             f"sma-gym diagnose: note: the nominal model was the default {DEFAULT_DIAGNOSIS_MODEL!r} (the report's "
@@ -348,9 +348,16 @@ def _print_diagnosis(result: Any, paths: dict[str, Path], as_json: bool) -> None
         # written (the result alone left out which code produced it and where it went).
         print(json.dumps(json.loads(paths["json"].read_text(encoding="utf-8"))))
         return
-    joiner = " + " if result.verdict == "effects" else " or "
+    joiner = " + " if result.verdict in ("effects", "partial") else " or "
     effect = result.effect if isinstance(result.effect, str) or result.effect is None else joiner.join(result.effect)
     print(f"verdict: {result.verdict}" + (f" ({effect})" if effect else ""))
+    if result.verdict == "partial":
+        ex = result.explained
+        print(
+            f"  partly explained: the corrected model carries {effect}, which closes {ex['gain']:.0%} of the "
+            f"held-out gap ({ex['reference_heldout_normalised_rms']:.3g}x -> {ex['final_heldout_normalised_rms']:.3g}x "
+            "the noise); not named as found (see the report)"
+        )
     from sma_gym.diagnosis.report import format_value
 
     whole = result.whole_file_refit

@@ -103,13 +103,25 @@ def test_scoring_separates_right_not_wrong_and_confidently_wrong(bench: ModuleTy
     assert classify("none", "effect", ["latent_heat"]) == "confident_wrong"
     assert classify("none", "unexplained", []) == "miss"
     assert classify("latent_heat", "none", []) == "miss"
+    # A partial explanation names without confidence: never right, never a confident wrong name.
+    assert classify("latent_heat", "partial", ["latent_heat"]) == "ambiguous_with_truth"
+    assert classify("none", "partial", ["latent_heat"]) == "miss"
+    assert bench.classify_clean("partial") == "partial"
+    assert bench.classify_pair(["sensor_lag", "latent_heat"], "partial", ["latent_heat"]) == "ambiguous"
     # What a verdict names: the effects found, or an ambiguous round's rivals, never both.
     from types import SimpleNamespace
 
     found = SimpleNamespace(verdict="effects", effects_found=["sag", "lag"], effect=["sag", "lag"])
     rivals = SimpleNamespace(verdict="ambiguous", effects_found=["sag"], effect=["lag", "abbe"])
     nothing = SimpleNamespace(verdict="unexplained", effects_found=[], effect=None)
-    assert [bench.named_effects(r) for r in (found, rivals, nothing)] == [["sag", "lag"], ["lag", "abbe"], []]
+    partly = SimpleNamespace(verdict="partial", effects_found=["sag"], effect=["sag"])
+    assert [bench.named_effects(r) for r in (found, rivals, nothing, partly)] == [
+        ["sag", "lag"],
+        ["lag", "abbe"],
+        [],
+        ["sag"],
+    ]
+    assert bench.answer_label(partly) == "partial(sag)"
 
 
 def test_pairs_cover_every_pair_once_before_repeating_and_hold_out_another_excitation(bench: ModuleType) -> None:
