@@ -14,11 +14,15 @@ targets, then prints the values to write into ``params.py``.
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 from sma_gym import fidelity
 from sma_gym.extras import MissingExtraError, require
 from sma_gym.model import ModelConfig
 from sma_gym.params import FORCED_CONVECTION_FACTOR, preset, standard
+
+if TYPE_CHECKING:
+    from sma_gym.diagnosis.workflow import Diagnosis
 
 
 def _model(h0: float, rho_a: float, forced: bool = False) -> ModelConfig:
@@ -196,6 +200,18 @@ def calibrate_bench(fit_file: str = "step01.csv", check_file: str = "ramp01.csv"
     return values
 
 
+def _verdict_words(result: Diagnosis) -> str:
+    """How the twin's notes introduce its effects: found, or only carried when the verdict is
+    ``partial`` (they close less than half of the held-out gap, docs/diagnosis.md)."""
+    if result.verdict != "partial":
+        return "effects found"
+    ex = result.explained
+    return (
+        f"verdict partial, effects carried but not named as found (they close {ex['gain']:.0%} of the held-out gap, "
+        f"{ex['reference_heldout_normalised_rms']:.3g}x -> {ex['final_heldout_normalised_rms']:.3g}x the noise)"
+    )
+
+
 def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = True) -> ModelConfig:
     """Identify the ``bench-0.5mm-ht`` twin on the four shared real runs and write it.
 
@@ -250,7 +266,7 @@ def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = 
         notes=(
             f"Identified by python -m sma_gym.calibration twin from bench-0.5mm-ht-datasheet on {', '.join(REAL_BENCH_RUNS)} "
             f"(chosen on the first {100 - held} % of each run, the last {held} % held out, then refitted on the whole runs), "
-            f"{len(result.rounds)} round(s); effects found: {found}. "
+            f"{len(result.rounds)} round(s); {_verdict_words(result)}: {found}. "
             f"Position RMS over each whole run: {gap} (as chosen, before the refit: {chosen}). "
             f"Fitted parameters at a bound (findings, docs/diagnosis.md): {at_bounds}."
         ),

@@ -81,7 +81,7 @@ def write_report(
             f"**Partly explained**: {' and '.join(f'`{e}`' for e in result.effect)} "
             f"{'improves' if one else 'improve'} the held-out prediction, "
             f"{ex['reference_heldout_normalised_rms']:.3g}x -> {ex['final_heldout_normalised_rms']:.3g}x the noise, but "
-            f"{'closes' if one else 'close'} {ex['gain']:.0%} of that gap (a finding closes at least {PARTIAL_GAIN:.0%}, or leaves less than "
+            f"{'closes' if one else 'close'} {ex['gain']:.0%} of that gap (a finding closes at least {PARTIAL_GAIN:.0%}, or leaves at most "
             f"{STRUCTURED_RATIO:g}x the noise). Most of the misfit is something the library does not name, "
             f"which {'it' if one else 'they'} may stand in for: the corrected model carries "
             f"{'it' if one else 'them'}, but {'it is' if one else 'they are'} not named as found."

@@ -624,7 +624,7 @@ def diagnose(
             rounds[-1]["parameters_at_bounds"] = []
         current, offset = chosen_fit.model, chosen_fit.offset
     # After the model as given may have replaced the refit: the last round's gap is then its.
-    explained = _explained(rounds)
+    explained = _explained(rounds, carried is not None)
     verdict, effect, separating = _verdict(found, first, last, explained)
     files = [*fit_traces, *heldout_traces]
     changed = rounds[-1].get("removed") or any(r["swapped"] for r in rounds[-1].get("swaps", ()))
@@ -710,19 +710,24 @@ def _verdict(
     return ("effect", found[0], separating) if len(found) == 1 else ("effects", list(found), separating)
 
 
-def _explained(rounds: Sequence[dict[str, Any]]) -> dict[str, float]:
-    """How much of the held-out gap the rounds closed, in units of the noise: from the
+def _explained(rounds: Sequence[dict[str, Any]], carried: bool = False) -> dict[str, float]:
+    """How much of the held-out gap the effects found closed, in units of the noise: from the
     better of the model as given and its round-1 refit (``reference``) to the model the
-    rounds leave (``final``); ``gain`` is 1 - final / reference."""
-    first = rounds[0]
-    reference = min(first["nominal_refit_heldout_normalised_rms"], first["as_given_heldout_normalised_rms"])
-    final = rounds[-1]["heldout_normalised_rms"]
-    gain = 1.0 - final / reference if reference > 0.0 else 0.0
+    rounds leave (``final``); ``gain`` is 1 - final / reference (NaN without finite scores).
+    With a candidate ``carried`` from an ambiguous last round, ``final`` is that round's
+    refit of the effects found, without it: its gain is not theirs."""
+    first, last = rounds[0], rounds[-1]
+    given = [first["nominal_refit_heldout_normalised_rms"], first["as_given_heldout_normalised_rms"]]
+    finite = [v for v in given if math.isfinite(v) and v > 0.0]
+    reference = min(finite) if finite else math.nan
+    final = last["nominal_refit_heldout_normalised_rms"] if carried else last["heldout_normalised_rms"]
+    gain = 1.0 - final / reference if finite and math.isfinite(final) else math.nan
     return {"reference_heldout_normalised_rms": reference, "final_heldout_normalised_rms": final, "gain": gain}
 
 
 def _partial(explained: dict[str, float]) -> bool:
-    """The effects found leave most of a structured gap unexplained (``PARTIAL_GAIN``)."""
+    """The effects found leave most of a structured gap unexplained (``PARTIAL_GAIN``); never
+    on scores that are not finite."""
     return explained["final_heldout_normalised_rms"] > STRUCTURED_RATIO and explained["gain"] < PARTIAL_GAIN
 
 
