@@ -205,11 +205,9 @@ def _verdict_words(result: Diagnosis) -> str:
     ``partial`` (they close less than half of the held-out gap, docs/diagnosis.md)."""
     if result.verdict != "partial":
         return "effects found"
-    ex = result.explained
-    return (
-        f"verdict partial, effects carried but not named as found (they close {ex['gain']:.0%} of the held-out gap, "
-        f"{ex['reference_heldout_normalised_rms']:.3g}x -> {ex['final_heldout_normalised_rms']:.3g}x the noise)"
-    )
+    from sma_gym.diagnosis.workflow import explained_text
+
+    return f"verdict partial, effects carried but not named as found (they close {explained_text(result.explained)})"
 
 
 def identify_twin(folder: str | None = None, max_rounds: int = 3, write: bool = True) -> ModelConfig:

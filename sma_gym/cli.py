@@ -352,11 +352,11 @@ def _print_diagnosis(result: Any, paths: dict[str, Path], as_json: bool) -> None
     effect = result.effect if isinstance(result.effect, str) or result.effect is None else joiner.join(result.effect)
     print(f"verdict: {result.verdict}" + (f" ({effect})" if effect else ""))
     if result.verdict == "partial":
-        ex = result.explained
+        from sma_gym.diagnosis.workflow import explained_text
+
         print(
-            f"  partly explained: the corrected model carries {effect}, which closes {ex['gain']:.0%} of the "
-            f"held-out gap ({ex['reference_heldout_normalised_rms']:.3g}x -> {ex['final_heldout_normalised_rms']:.3g}x "
-            "the noise); not named as found (see the report)"
+            f"  partly explained: the corrected model carries {effect}, which closes "
+            f"{explained_text(result.explained)}; not named as found (see the report)"
         )
     from sma_gym.diagnosis.report import format_value
 

@@ -29,6 +29,7 @@ from sma_gym.diagnosis.workflow import (
     SEPARATION_T,
     STRUCTURED_RATIO,
     Diagnosis,
+    explained_text,
     file_labels,
     holdout_cut_s,
 )
@@ -76,12 +77,11 @@ def write_report(
     elif verdict == "ambiguous":
         headline = f"**Ambiguous: {' or '.join(f'`{e}`' for e in result.effect)}**. To tell them apart: {result.separating_experiment}."
     elif verdict == "partial":
-        ex, one = result.explained, len(result.effect) == 1
+        one = len(result.effect) == 1
         headline = (
             f"**Partly explained**: {' and '.join(f'`{e}`' for e in result.effect)} "
-            f"{'improves' if one else 'improve'} the held-out prediction, "
-            f"{ex['reference_heldout_normalised_rms']:.3g}x -> {ex['final_heldout_normalised_rms']:.3g}x the noise, but "
-            f"{'closes' if one else 'close'} {ex['gain']:.0%} of that gap (a finding closes at least {PARTIAL_GAIN:.0%}, or leaves at most "
+            f"{'improves' if one else 'improve'} the held-out prediction but {'closes' if one else 'close'} "
+            f"{explained_text(result.explained)} (a finding closes at least {PARTIAL_GAIN:.0%}, or leaves at most "
             f"{STRUCTURED_RATIO:g}x the noise). Most of the misfit is something the library does not name, "
             f"which {'it' if one else 'they'} may stand in for: the corrected model carries "
             f"{'it' if one else 'them'}, but {'it is' if one else 'they are'} not named as found."
