@@ -954,9 +954,18 @@ def test_an_ambiguous_rounds_rivals_are_refitted_in_their_other_forms(monkeypatc
     assert [c.name for c in r.replaced] == ["minor_loop_width", "abbe_offset"]
 
 
-@pytest.mark.parametrize(("again_cost", "again_rms", "verdict"), [(100.0, 1.0, "none"), (1000.0, 6.0, "effect")])
+@pytest.mark.parametrize(
+    ("again", "effect_again", "verdict", "ref_rms"),
+    [
+        ((100.0, 1.0), (90.0, 0.99), "none", 1.0),  # the better reference is at the noise
+        ((500.0, 4.0), (480.0, 3.9), "unexplained", 4.0),  # the effect gains little on it
+        ((500.0, 4.0), (300.0, 1.5), "effect", 4.0),  # the effect still gains on it: named
+        ((1000.0, 6.0), None, "effect", 6.0),  # no better optimum: named as before
+        ((500.0, 7.0), None, "effect", 6.0),  # fits better but predicts worse: no better reference
+    ],
+)
 def test_an_effect_is_named_only_if_the_reference_from_its_optimum_does_not_fit_as_well(
-    monkeypatch, again_cost, again_rms, verdict
+    monkeypatch, again, effect_again, verdict, ref_rms
 ):
     """Grid seed 83, case 12 (a 1.5x Abbe offset in its wear form, position only): round 2
     named a warm surroundings with a latent heat on top of the offset's wear form (6.28x
@@ -964,8 +973,10 @@ def test_an_effect_is_named_only_if_the_reference_from_its_optimum_does_not_fit_
     nominal parameters, fits to 1.16x the noise and holds out at 1.03x: the pair's gain was
     a better optimum of the nominal parameters that the reference's local fit had missed.
     Before a round names its winner, the reference is refitted from the winner's optimum
-    (without the winner's effect); where that fits better by the BIC bar, the round is
-    judged again from it, here ``none``. Where it does not, the effect is named as before."""
+    (without the winner's effect); where that fits better by the BIC bar and predicts no
+    worse, the round is judged again from it, once, every candidate refitted from there:
+    ``none`` or ``unexplained`` where the effect gains too little on it, the effect named
+    where it still does. Where no better reference is found, the effect is named as before."""
     held = HeldOut()
     base = fitting.NOMINAL[:1]
     held.residuals[base] = smooth(0, 20.0, 50)  # the model as given
@@ -982,10 +993,15 @@ def test_an_effect_is_named_only_if_the_reference_from_its_optimum_does_not_fit_
 
         def fit(self, name, params, warm=None, **kwargs):
             effect = len(params) > len(base)
-            from_winner = not effect and (warm or {}).get(base[0].name) == 1.3
-            calls.append((name, effect, from_winner))
-            cost, rms = (800.0, 3.0) if effect else (again_cost, again_rms) if from_winner else (1000.0, 6.0)
-            values = np.array([1.3] + [0.5] * (len(params) - 1)) if effect else np.array([1.0])
+            start = (warm or {}).get(base[0].name)
+            calls.append((name, effect, start))
+            if effect:
+                value = 1.3
+                cost, rms = effect_again if start == 1.1 and effect_again else (800.0, 3.0)
+            else:
+                value = 1.1 if start == 1.3 else 1.0  # from the winner's optimum: another one
+                cost, rms = again if start == 1.3 else (1000.0, 6.0)
+            values = np.array([value] + [0.5] * (len(params) - 1))
             held.residuals[params] = smooth(len(calls), rms, 50)
             return SimpleNamespace(
                 name=name,
@@ -1006,10 +1022,14 @@ def test_an_effect_is_named_only_if_the_reference_from_its_optimum_does_not_fit_
     monkeypatch.setattr(workflow.fitting, "Problem", Problem)
     monkeypatch.setattr(workflow, "_inert", lambda fit, problem: False)
     r = workflow._round(ModelConfig(), [], {}, ["latent_heat"], {}, None, [], [], 1e-3, 0.10, lambda m: None)
-    assert [c for c in calls if c[2]] == [("nominal refit", False, True)]  # once, from the winner's optimum
+    assert [c for c in calls if not c[1] and c[2] == 1.3] == [("nominal refit", False, 1.3)]  # once
+    rejudged = again[0] < 1000.0 and again[1] <= 6.0
+    assert r.reference_from == ("latent_heat" if rejudged else None)
+    # Refitted from the better reference (an unexplained round then also tries its other form).
+    assert (("latent_heat", True, 1.1) in calls) == rejudged
     assert r.verdict == verdict
-    assert r.ref.heldout_score == pytest.approx(1.0 if verdict == "none" else 6.0)
-    assert r.effect == (None if verdict == "none" else "latent_heat")
+    assert r.ref.heldout_score == pytest.approx(ref_rms)
+    assert r.effect == ("latent_heat" if verdict == "effect" else None)
 
 
 @pytest.mark.parametrize("switch_fits", [True, False])

@@ -278,6 +278,9 @@ def _round_lines(result: Diagnosis) -> list[str]:
         if r.get("refit_adopted"):
             effect = f"{effect}; " if effect else ""
             effect += "the effects found refitted (predicts better: kept)"
+        if r.get("reference_refitted_from"):
+            effect = f"{effect}; " if effect else ""
+            effect += f"judged again from the refit started where {r['reference_refitted_from']} left it (fits better)"
         for removed in r.get("removed") or []:
             effect = f"{effect}; " if effect else ""
             effect += (

@@ -13,8 +13,8 @@
      the refit, the refit is run again from there and becomes the reference). Likewise,
      before a round names its winner (an effect or a pair), the reference is refitted from
      where the winner left the nominal parameters and the effects found before; where that
-     fits better by the BIC bar, the round is judged again from it, once
-     (``_reference_from_winner``);
+     fits better by the BIC bar and predicts the held-out data no worse, the round is judged
+     again from it, once (``_reference_from_winner``);
    * on the fitted data its BIC is lower than the reference's by more than
      ``BIC_THRESHOLD`` (10: "very strong" evidence on the Kass-Raftery scale), with BIC =
      N_eff ln(RSS / N) + k ln(N_eff), where N_eff is the sample count divided by the
@@ -566,6 +566,9 @@ def diagnose(
                 # A round that named nothing but refitted the effects found to a better
                 # held-out score than the model it started from: that refit is kept.
                 "refit_adopted": refit_adopted,
+                # The winner from whose optimum the reference was refitted (better by the BIC
+                # bar and held out no worse) before the round was judged again, if it was.
+                "reference_refitted_from": r.reference_from,
                 # The effects this round named in another than their default form (``_other_forms``).
                 "named_forms": {
                     p.effect: p.form
@@ -830,6 +833,9 @@ class _Round:
     """{effect: form}: the effects found before that this round moved to other forms."""
     replaced: list[Candidate] = field(default_factory=list)
     """Candidates of an ``unexplained`` judgement that another of their forms replaced."""
+    reference_from: str | None = None
+    """The winner from whose optimum the reference was refitted before the round was judged
+    again (``_reference_from_winner``), if it was."""
 
 
 def _round(
@@ -902,7 +908,8 @@ def _round(
     for c in candidates[1:]:
         c.inert = _inert(c.fit, problem)
     ref = _best_reference(candidates, problem, held_problem, base_params, n_eff, say)
-    rejudged = False
+    replaced: list[Candidate] = []
+    reference_from = None
     while True:
         if ref is not candidates[0]:
             # The nominal parameters have a better optimum than the one every candidate
@@ -913,15 +920,14 @@ def _round(
             for k in range(1, len(candidates)):
                 c = candidates[k]
                 say(f"candidate {c.name} again from the better optimum")
-                params = base_params + fitting.effect_parameters(c.name)
-                again = problem.fit(c.name, params, warm=ref.fit.values_by_name(), sweep_effect=c.name)
+                # Its own parameters: after a judgement, a candidate may be in another form.
+                again = problem.fit(c.name, c.fit.parameters, warm=ref.fit.values_by_name(), sweep_effect=c.name)
                 if again.cost < c.fit.cost:
                     candidates[k] = _candidate(again, held_problem, n_eff)
                     candidates[k].inert = _inert(again, problem)
         candidates[0] = ref
         bars = [ref] + form_bars
         verdict = _judge(ref, candidates[1:], bars, as_given, heldout_gain, problem.electrical, held_problem)
-        replaced: list[Candidate] = []
         if verdict.verdict in ("unexplained", "ambiguous"):
             # An effect's form is as uncertain as its size: a candidate with evidence but no
             # support may be the right effect in the wrong form (measured: an asymmetric latent
@@ -938,7 +944,7 @@ def _round(
                 candidates, base_params, problem, held_problem, n_eff, heldout_gain, say, current_forms
             )
             if others:
-                replaced = [c for c in candidates if c.name in others]
+                replaced += [c for c in candidates if c.name in others]
                 candidates = [others.get(c.name, c) for c in candidates]
                 verdict = _judge(ref, candidates[1:], bars, as_given, heldout_gain, problem.electrical, held_problem)
         pairs = _pairs_to_try(verdict, heldout_gain, problem.electrical)
@@ -946,15 +952,16 @@ def _round(
             verdict = (
                 _joint(verdict, pairs, bars, base_params, problem, held_problem, n_eff, heldout_gain, say) or verdict
             )
-        if rejudged or verdict.verdict not in ("effect", "effects"):
+        if reference_from is not None or verdict.verdict not in ("effect", "effects"):
             break
         better = _reference_from_winner(verdict.chosen, ref, base_params, problem, held_problem, n_eff, say)
         if better is None:
             break
-        ref, rejudged = better, True
+        ref, reference_from = better, verdict.chosen.name
     if form_change is not None:
         verdict.form_change = dict(form_change[0])
     verdict.replaced = replaced
+    verdict.reference_from = reference_from
     return verdict
 
 
@@ -1703,7 +1710,8 @@ def _reference_from_winner(
 ) -> Candidate | None:
     """The round's reference refitted from where the effect (or pair) it is about to name
     left the nominal parameters and the effects found before, without the new effect; the
-    better optimum when it fits better than the reference by the BIC bar, else None. Then
+    better optimum when it fits better than the reference by the BIC bar and predicts the
+    held-out data no worse (else it is no better reference, only another fit), else None. Then
     the round is judged again from it (once), as from an inert candidate's better optimum
     (``_best_reference``): the winner's gain may be that optimum's, which the reference's
     local fit missed, not the effect's. Measured (grid seed 83, case 12: a 1.5x Abbe
@@ -1711,11 +1719,11 @@ def _reference_from_winner(
     wear form at 6.28x the noise held out and named a warm surroundings with a latent heat
     on top at 1.10x, a confident wrong name; the offset alone, refitted from the pair's
     optimum, fits to 1.16x the noise and holds out 1.03x."""
-    names = {p.name for p in base_params}
-    warm = {k: v for k, v in winner.fit.values_by_name().items() if k in names}
+    # Only parameters in the reference's own forms (a name means something else in another form).
+    warm = {p.name: float(v) for p, v in zip(winner.fit.parameters, winner.fit.values) if p in base_params}
     say(f"reference again from {winner.name}'s optimum of the nominal parameters")
     again = _candidate(problem.fit(ref.fit.name, base_params, warm=warm), held_problem, n_eff)
-    if again.bic - ref.bic >= -BIC_THRESHOLD:
+    if again.bic - ref.bic >= -BIC_THRESHOLD or again.heldout_score > ref.heldout_score:
         return None
     say(
         f"reference from {winner.name}'s optimum: BIC {again.bic - ref.bic:+.1f}, held out "
