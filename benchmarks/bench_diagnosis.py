@@ -400,6 +400,8 @@ def run_case(case: GridCase, nominal: ModelConfig, max_rounds: int, threads: int
         category=classify(case.truth, result.verdict, named),
         rounds=len(result.rounds),
         round_verdicts=[r["verdict"] for r in result.rounds],
+        # Each round's winner from whose optimum a better reference was refitted (then judged again).
+        reference_refitted_from=[r.get("reference_refitted_from") for r in result.rounds],
         # Held-out normalised RMS (1 = the noise): model as given, nominal refit, final model.
         heldout_as_given=first.get("as_given_heldout_normalised_rms"),
         heldout_nominal_refit=first.get("nominal_refit_heldout_normalised_rms"),
@@ -1045,6 +1047,7 @@ def run_pairs(
                 category=classify_pair(case.truth, result.verdict, named),
                 round_verdicts=[r["verdict"] for r in result.rounds],
                 round_effects=[r.get("effect") for r in result.rounds],
+                reference_refitted_from=[r.get("reference_refitted_from") for r in result.rounds],
                 removed=[r["effect"] for r in result.rounds[-1].get("removed") or []],
                 pruning=result.rounds[-1].get("pruning") or [],
                 swaps=result.rounds[-1].get("swaps") or [],
